@@ -1,0 +1,28 @@
+!> Error values passed up from library routines to the driver, which makes the
+!> MPI ranks agree on failure and aborts with one clear message. Library code never stops.
+module beadmob_errors
+  implicit none
+  private
+  public :: error_t, raise, has_failed
+
+  type :: error_t
+    logical :: failed = .false.
+    character(len=:), allocatable :: message
+  end type error_t
+
+contains
+
+  !> Record a failure; the first message is kept (it names the root cause).
+  subroutine raise(err, message)
+    type(error_t), intent(inout) :: err
+    character(len=*), intent(in) :: message
+    if (err%failed) return
+    err%failed = .true.
+    err%message = message
+  end subroutine raise
+
+  pure logical function has_failed(err)
+    type(error_t), intent(in) :: err
+    has_failed = err%failed
+  end function has_failed
+end module beadmob_errors

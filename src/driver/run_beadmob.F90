@@ -1,0 +1,97 @@
+!> One beadmob run, from the input file to the result file. Every step that can fail on
+!> one rank ends in `agree_on_error`, so the ranks always stop together with one message.
+module beadmob_run
+  use mpi, only: MPI_Bcast, MPI_INTEGER
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
+  use beadmob_input_config, only: run_config_t, parse_input_text
+  use beadmob_bead_model, only: bead_model_t
+  use beadmob_shape_catalog, only: build_bead_model
+  use beadmob_geometry_checks, only: check_bead_model
+  use beadmob_body_frame, only: body_frame_t, compute_body_frame
+  use beadmob_result_file, only: write_result_file
+  implicit none
+  private
+  public :: run_beadmob, read_input_file, built_in_source
+
+  character(len=*), parameter :: built_in_source = 'built-in default'
+
+contains
+
+  !> `input_path` empty: the built-in default job (the paper's cone).
+  subroutine run_beadmob(ctx, input_path, err)
+    type(run_context_t), intent(in) :: ctx
+    character(len=*), intent(in) :: input_path
+    type(error_t), intent(inout) :: err
+    type(run_config_t) :: config
+    type(bead_model_t) :: model
+    type(body_frame_t) :: frame
+    character(len=:), allocatable :: text, source
+
+    text = ''
+    source = built_in_source
+    if (len_trim(input_path) > 0) then
+      source = trim(input_path)
+      if (ctx%rank == 0) call read_input_file(source, text, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      call broadcast_text(ctx, text)
+    end if
+    call parse_input_text(text, source, config, err)
+    if (err%failed) return   ! every rank parsed the same text: no divergence
+
+    call build_bead_model(ctx, config%shape, model, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call check_bead_model(model, config%overlap_tolerance, err)
+    if (err%failed) return
+    call compute_body_frame(model%centres, frame, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    ! Without a paper value, L is the size along the body x axis (paper: x along L).
+    if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
+
+    call write_result_file(ctx, config, model, frame, err)
+    if (err%failed) return
+    if (ctx%rank == 0) call print_summary(config, model, frame)
+  end subroutine run_beadmob
+
+  subroutine read_input_file(path, text, err)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable, intent(out) :: text
+    type(error_t), intent(inout) :: err
+    integer :: unit, status, file_size
+    character(len=512) :: message
+    open (newunit=unit, file=path, status='old', action='read', access='stream', form='unformatted', &
+          iostat=status, iomsg=message)
+    if (status /= 0) then
+      text = ''
+      call raise(err, "cannot open input file '" // path // "': " // trim(message))
+      return
+    end if
+    inquire (unit=unit, size=file_size)
+    allocate (character(len=max(file_size, 0)) :: text)
+    if (file_size > 0) read (unit, iostat=status, iomsg=message) text
+    close (unit)
+    if (status /= 0) call raise(err, "cannot read input file '" // path // "': " // trim(message))
+    if (status == 0 .and. len_trim(text) == 0) call raise(err, "input file '" // path // "' is empty")
+  end subroutine read_input_file
+
+  subroutine print_summary(config, model, frame)
+    type(run_config_t), intent(in) :: config
+    type(bead_model_t), intent(in) :: model
+    type(body_frame_t), intent(in) :: frame
+    character(len=*), parameter :: vector_format = '(a, 3f12.4)'
+    write (*, '(a)') 'beadmob: shape ' // model%shape_name // ' (' // model%source // ')'
+    write (*, '(a)') '  beads:             ' // str(model%n_beads())
+    write (*, vector_format) '  centre of mass:   ', frame%centre_of_mass
+    write (*, vector_format) '  extent x, y, z:   ', frame%extent
+    write (*, vector_format) '  body x axis:      ', frame%axes(:, 1)
+    write (*, vector_format) '  body z axis:      ', frame%axes(:, 3)
+    write (*, '(a, 3l2, a, l1)') '  mirror planes x,y,z:', frame%mirror_plane, '   paper class: ', frame%paper_class
+    write (*, '(a, f10.4)') '  reference length L (d): ', model%reference_length
+    write (*, '(a)') '  result written to ' // trim(config%output)
+  end subroutine print_summary
+end module beadmob_run

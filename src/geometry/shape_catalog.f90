@@ -1,0 +1,273 @@
+!> From the &shape group of the input to a bead model: known shape names, their
+!> parameters (required, optional with the paper's values, or not taken), and bead files.
+module beadmob_shape_catalog
+  use mpi, only: MPI_Bcast, MPI_INTEGER, MPI_DOUBLE_PRECISION
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, agree_on_error
+  use beadmob_input_config, only: shape_config_t, is_set
+  use beadmob_bead_model, only: bead_model_t, add_parameter
+  use beadmob_paper_shapes, only: build_cone, build_arrowhead, build_open_ring, build_crescent_moon, &
+                                  gap_half_angle_from_arc
+  use beadmob_paper_presets, only: paper_shape_t, paper_shape_preset
+  use beadmob_simple_shapes, only: build_single_bead, build_bead_pair, build_chain, build_filled_sphere, &
+                                   build_spheroid, build_box, build_torus
+  use beadmob_text_bead_file, only: read_text_bead_file
+  use beadmob_hdf5_bead_file, only: read_hdf5_bead_file, is_hdf5_file
+  implicit none
+  private
+  public :: build_bead_model, known_shape_names
+
+  character(len=*), parameter :: known_shape_names = 'cone, arrowhead, crescent_moon, ring_1mm, ring_2mm, ' // &
+    'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, torus, bead_file'
+
+  !> One real parameter of the &shape group, by name, for the "given but not taken" check.
+  type :: named_value_t
+    character(len=32) :: name
+    logical :: given
+  end type named_value_t
+
+contains
+
+  subroutine build_bead_model(ctx, shape_config, model, err)
+    type(run_context_t), intent(in) :: ctx
+    type(shape_config_t), intent(in) :: shape_config
+    type(bead_model_t), intent(out) :: model
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: name
+
+    name = trim(shape_config%name)
+    model%shape_name = name
+    model%source = 'built-in shape'
+    allocate (model%parameters(0))
+    if (is_set(shape_config%reference_length)) then
+      if (.not. (shape_config%reference_length > 0.0_dp)) then
+        call raise(err, '&shape reference_length must be positive, got ' // str(shape_config%reference_length))
+        return
+      end if
+    end if
+
+    select case (name)
+    case ('cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring')
+      call build_paper_shape(shape_config, model, err)
+    case ('single_bead', 'bead_pair', 'chain', 'sphere', 'spheroid', 'box', 'torus')
+      call build_simple_shape(shape_config, model, err)
+    case ('bead_file')
+      call read_bead_file(ctx, shape_config, model, err)
+    case default
+      call raise(err, "unknown shape name '" // name // "' (known: " // known_shape_names // ')')
+    end select
+    if (err%failed) return
+    if (is_set(shape_config%reference_length)) model%reference_length = shape_config%reference_length
+  end subroutine build_bead_model
+
+  !> The paper's shapes (settlers paper, appendix "Bead model ..."): every parameter defaults
+  !> to the paper's value; L is the paper's L/d unless a parameter was changed.
+  subroutine build_paper_shape(c, model, err)
+    type(shape_config_t), intent(in) :: c
+    type(bead_model_t), intent(inout) :: model
+    type(error_t), intent(inout) :: err
+    type(paper_shape_t) :: preset
+    logical :: modified
+    real(dp) :: gap_half_angle
+
+    preset = paper_shape_preset(trim(c%name))
+    gap_half_angle = preset%gap_half_angle
+    select case (trim(c%name))
+    case ('cone')
+      call only_given(c, [character(len=32) :: 'base_diameter', 'height'], err)
+      if (err%failed) return
+      associate (base_diameter => pick(c%base_diameter, preset%base_diameter), height => pick(c%height, preset%height))
+        call add_parameter(model, 'base_diameter', base_diameter)
+        call add_parameter(model, 'height', height)
+        call build_cone(base_diameter, height, model%centres, err)
+      end associate
+    case ('arrowhead')
+      call only_given(c, [character(len=32) :: 'length', 'height', 'middle_height', 'width'], err)
+      if (err%failed) return
+      associate (length => pick(c%length, preset%length), height => pick(c%height, preset%height), &
+                 middle_height => pick(c%middle_height, preset%middle_height), width => pick(c%width, preset%width))
+        call add_parameter(model, 'length', length)
+        call add_parameter(model, 'height', height)
+        call add_parameter(model, 'middle_height', middle_height)
+        call add_parameter(model, 'width', width)
+        call build_arrowhead(length, height, middle_height, width, model%centres, err)
+      end associate
+    case ('crescent_moon')
+      call only_given(c, [character(len=32) :: 'scale', 'section_ratio'], err)
+      if (err%failed) return
+      associate (scale => pick(c%scale, preset%scale), section_ratio => pick(c%section_ratio, preset%section_ratio))
+        call add_parameter(model, 'scale', scale)
+        call add_parameter(model, 'section_ratio', section_ratio)
+        call build_crescent_moon(scale, section_ratio, model%centres, err)
+      end associate
+    case default   ! open rings: the four presets and the generic 'open_ring'
+      call only_given(c, [character(len=32) :: 'semi_major', 'semi_minor', 'pipe_radius', 'gap_half_angle', &
+                                               'gap_arc_length'], err)
+      if (err%failed) return
+      if (trim(c%name) == 'open_ring') then
+        call require(c, 'semi_major', c%semi_major, err)
+        call require(c, 'semi_minor', c%semi_minor, err)
+        call require(c, 'pipe_radius', c%pipe_radius, err)
+        if (.not. (is_set(c%gap_half_angle) .or. is_set(c%gap_arc_length))) &
+          call raise(err, "&shape: shape 'open_ring' needs gap_half_angle (degrees) or gap_arc_length (d)")
+      end if
+      if (is_set(c%gap_half_angle) .and. is_set(c%gap_arc_length)) &
+        call raise(err, '&shape: give gap_half_angle or gap_arc_length, not both')
+      if (err%failed) return
+      associate (semi_major => pick(c%semi_major, preset%semi_major), semi_minor => pick(c%semi_minor, preset%semi_minor), &
+                 pipe_radius => pick(c%pipe_radius, preset%pipe_radius))
+        gap_half_angle = pick(c%gap_half_angle, preset%gap_half_angle)
+        if (is_set(c%gap_arc_length)) then
+          if (.not. (c%gap_arc_length >= 0.0_dp)) then
+            call raise(err, '&shape gap_arc_length must be >= 0, got ' // str(c%gap_arc_length))
+            return
+          end if
+          gap_half_angle = gap_half_angle_from_arc(semi_major, semi_minor, c%gap_arc_length)
+          call add_parameter(model, 'gap_arc_length', c%gap_arc_length)
+        end if
+        call add_parameter(model, 'semi_major', semi_major)
+        call add_parameter(model, 'semi_minor', semi_minor)
+        call add_parameter(model, 'pipe_radius', pipe_radius)
+        call add_parameter(model, 'gap_half_angle', gap_half_angle)
+        call build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle, model%centres, err)
+      end associate
+    end select
+    ! L is the paper's L/d only for the paper's own parameters.
+    modified = any([pick(c%base_diameter, preset%base_diameter) /= preset%base_diameter, &
+                    pick(c%height, preset%height) /= preset%height, pick(c%length, preset%length) /= preset%length, &
+                    pick(c%middle_height, preset%middle_height) /= preset%middle_height, &
+                    pick(c%width, preset%width) /= preset%width, &
+                    pick(c%semi_major, preset%semi_major) /= preset%semi_major, &
+                    pick(c%semi_minor, preset%semi_minor) /= preset%semi_minor, &
+                    pick(c%pipe_radius, preset%pipe_radius) /= preset%pipe_radius, &
+                    gap_half_angle /= preset%gap_half_angle, pick(c%scale, preset%scale) /= preset%scale, &
+                    pick(c%section_ratio, preset%section_ratio) /= preset%section_ratio]) .or. trim(c%name) == 'open_ring'
+    if (.not. modified) model%reference_length = preset%reference_length
+  end subroutine build_paper_shape
+
+  subroutine build_simple_shape(c, model, err)
+    type(shape_config_t), intent(in) :: c
+    type(bead_model_t), intent(inout) :: model
+    type(error_t), intent(inout) :: err
+    integer :: k
+    select case (trim(c%name))
+    case ('single_bead')
+      call only_given(c, [character(len=32) :: ''], err)
+      if (.not. err%failed) call build_single_bead(model%centres, err)
+    case ('bead_pair')
+      call only_given(c, [character(len=32) :: 'separation'], err)
+      call require(c, 'separation', c%separation, err)
+      if (err%failed) return
+      call add_parameter(model, 'separation', c%separation)
+      call build_bead_pair(c%separation, model%centres, err)
+    case ('chain')
+      call only_given(c, [character(len=32) :: 'n_beads'], err)
+      if (.not. is_set(c%n_beads)) call raise(err, "&shape: shape 'chain' needs n_beads")
+      if (err%failed) return
+      call add_parameter(model, 'n_beads', real(c%n_beads, dp))
+      call build_chain(c%n_beads, model%centres, err)
+    case ('sphere')
+      call only_given(c, [character(len=32) :: 'radius'], err)
+      call require(c, 'radius', c%radius, err)
+      if (err%failed) return
+      call add_parameter(model, 'radius', c%radius)
+      call build_filled_sphere(c%radius, model%centres, err)
+    case ('spheroid')
+      call only_given(c, [character(len=32) :: 'semi_axes'], err)
+      if (.not. all(is_set(c%semi_axes))) call raise(err, "&shape: shape 'spheroid' needs semi_axes = a, b, c")
+      if (err%failed) return
+      do k = 1, 3
+        call add_parameter(model, 'semi_axis_' // achar(iachar('x') + k - 1), c%semi_axes(k))
+      end do
+      call build_spheroid(c%semi_axes, model%centres, err)
+    case ('box')
+      call only_given(c, [character(len=32) :: 'box_beads'], err)
+      if (.not. all(is_set(c%box_beads))) call raise(err, "&shape: shape 'box' needs box_beads = nx, ny, nz")
+      if (err%failed) return
+      do k = 1, 3
+        call add_parameter(model, 'beads_' // achar(iachar('x') + k - 1), real(c%box_beads(k), dp))
+      end do
+      call build_box(c%box_beads(1), c%box_beads(2), c%box_beads(3), model%centres, err)
+    case ('torus')
+      call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius'], err)
+      call require(c, 'major_radius', c%major_radius, err)
+      call require(c, 'minor_radius', c%minor_radius, err)
+      if (err%failed) return
+      call add_parameter(model, 'major_radius', c%major_radius)
+      call add_parameter(model, 'minor_radius', c%minor_radius)
+      call build_torus(c%major_radius, c%minor_radius, model%centres, err)
+    end select
+  end subroutine build_simple_shape
+
+  !> Bead files are read by rank 0 and broadcast: one reader, identical beads on all ranks.
+  subroutine read_bead_file(ctx, c, model, err)
+    type(run_context_t), intent(in) :: ctx
+    type(shape_config_t), intent(in) :: c
+    type(bead_model_t), intent(inout) :: model
+    type(error_t), intent(inout) :: err
+    integer :: n_beads, ierr
+    logical :: hdf5_format
+
+    call only_given(c, [character(len=32) :: 'file'], err)
+    if (len_trim(c%file) == 0) call raise(err, "&shape: shape 'bead_file' needs file = 'path'")
+    if (err%failed) return
+    model%source = trim(c%file)
+    if (ctx%rank == 0) then
+      hdf5_format = is_hdf5_file(trim(c%file))
+      if (hdf5_format) then
+        call read_hdf5_bead_file(trim(c%file), trim(c%dataset), model%centres, err)
+      else
+        call read_text_bead_file(trim(c%file), model%centres, model%source_lines, err)
+      end if
+      n_beads = size(model%centres, 2)
+    end if
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call MPI_Bcast(n_beads, 1, MPI_INTEGER, 0, ctx%comm, ierr)
+    if (ctx%rank /= 0) allocate (model%centres(3, n_beads))
+    if (n_beads > 0) call MPI_Bcast(model%centres, 3 * n_beads, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+  end subroutine read_bead_file
+
+  elemental real(dp) function pick(given, default)
+    real(dp), intent(in) :: given, default
+    pick = merge(given, default, is_set(given))
+  end function pick
+
+  subroutine require(c, name, value, err)
+    type(shape_config_t), intent(in) :: c
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: value
+    type(error_t), intent(inout) :: err
+    if (.not. is_set(value)) call raise(err, "&shape: shape '" // trim(c%name) // "' needs " // name)
+  end subroutine require
+
+  !> A parameter given in &shape that the shape does not take is an error, not silently ignored.
+  subroutine only_given(c, allowed, err)
+    type(shape_config_t), intent(in) :: c
+    character(len=*), intent(in) :: allowed(:)
+    type(error_t), intent(inout) :: err
+    type(named_value_t) :: given(20)
+    integer :: k
+    given = [named_value_t('base_diameter', is_set(c%base_diameter)), named_value_t('height', is_set(c%height)), &
+             named_value_t('length', is_set(c%length)), named_value_t('middle_height', is_set(c%middle_height)), &
+             named_value_t('width', is_set(c%width)), named_value_t('semi_major', is_set(c%semi_major)), &
+             named_value_t('semi_minor', is_set(c%semi_minor)), named_value_t('pipe_radius', is_set(c%pipe_radius)), &
+             named_value_t('gap_half_angle', is_set(c%gap_half_angle)), &
+             named_value_t('gap_arc_length', is_set(c%gap_arc_length)), named_value_t('scale', is_set(c%scale)), &
+             named_value_t('section_ratio', is_set(c%section_ratio)), &
+             named_value_t('separation', is_set(c%separation)), named_value_t('radius', is_set(c%radius)), &
+             named_value_t('major_radius', is_set(c%major_radius)), &
+             named_value_t('minor_radius', is_set(c%minor_radius)), &
+             named_value_t('semi_axes', any(is_set(c%semi_axes))), named_value_t('n_beads', is_set(c%n_beads)), &
+             named_value_t('box_beads', any(is_set(c%box_beads))), named_value_t('file', len_trim(c%file) > 0)]
+    do k = 1, size(given)
+      if (given(k)%given .and. .not. any(allowed == given(k)%name)) then
+        call raise(err, "&shape: parameter '" // trim(given(k)%name) // "' is not taken by shape '" // &
+                   trim(c%name) // "'")
+        return
+      end if
+    end do
+  end subroutine only_given
+end module beadmob_shape_catalog

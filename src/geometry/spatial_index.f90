@@ -1,0 +1,148 @@
+!> Cell list of bead centres (cells of one bead diameter) for neighbour queries in
+!> O(log N) each: beads are sorted by cell key, a cell is found by binary search.
+!> Used for overlap detection and mirror-symmetry tests on any bead set, on or off the lattice.
+module beadmob_spatial_index
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  implicit none
+  private
+  public :: spatial_index_t, build_spatial_index, beads_within, sort_keys
+
+  !> Widest model span (in d) the int64 cell key can hold without overflow.
+  real(dp), parameter :: max_span = 2.0e6_dp
+
+  type :: spatial_index_t
+    real(dp) :: origin(3) = 0.0_dp
+    integer(i8) :: n_cells(3) = 0
+    integer(i8), allocatable :: keys(:)    ! sorted cell keys
+    integer(i8), allocatable :: order(:)   ! bead index of each sorted key
+  end type spatial_index_t
+
+contains
+
+  subroutine build_spatial_index(centres, index, err)
+    real(dp), intent(in) :: centres(:, :)
+    type(spatial_index_t), intent(out) :: index
+    type(error_t), intent(inout) :: err
+    integer(i8) :: n, i
+    real(dp) :: span(3)
+
+    n = size(centres, 2, kind=i8)
+    allocate (index%keys(n), index%order(n))
+    if (n == 0) return
+    index%origin = minval(centres, dim=2)
+    span = maxval(centres, dim=2) - index%origin
+    if (any(span > max_span)) then
+      call raise(err, 'bead model spans more than 2e6 bead diameters; this is not a compact body')
+      return
+    end if
+    index%n_cells = int(span, i8) + 1
+    do i = 1, n
+      index%keys(i) = cell_key(index, cell_of(index, centres(:, i)))
+      index%order(i) = i
+    end do
+    call sort_keys(index%keys, index%order)
+  end subroutine build_spatial_index
+
+  pure function cell_of(index, point) result(cell)
+    type(spatial_index_t), intent(in) :: index
+    real(dp), intent(in) :: point(3)
+    integer(i8) :: cell(3)
+    cell = int(floor(point - index%origin), i8)
+  end function cell_of
+
+  pure integer(i8) function cell_key(index, cell)
+    type(spatial_index_t), intent(in) :: index
+    integer(i8), intent(in) :: cell(3)
+    cell_key = cell(1) + index%n_cells(1) * (cell(2) + index%n_cells(2) * cell(3))
+  end function cell_key
+
+  !> Indices of the beads whose centre lies strictly closer than `radius` (<= 1) to `point`.
+  subroutine beads_within(index, centres, point, radius, found, n_found)
+    type(spatial_index_t), intent(in) :: index
+    real(dp), intent(in) :: centres(:, :), point(3), radius
+    integer(i8), allocatable, intent(inout) :: found(:)
+    integer(i8), intent(out) :: n_found
+    integer(i8) :: centre_cell(3), cell(3), first, k, bead
+    integer :: dx, dy, dz
+    integer(i8), allocatable :: grown(:)
+
+    n_found = 0
+    if (.not. allocated(found)) allocate (found(32))
+    if (size(index%keys) == 0) return
+    centre_cell = cell_of(index, point)
+    do dz = -1, 1
+      do dy = -1, 1
+        do dx = -1, 1
+          cell = centre_cell + [dx, dy, dz]
+          if (any(cell < 0) .or. any(cell >= index%n_cells)) cycle
+          first = lower_bound(index%keys, cell_key(index, cell))
+          do k = first, size(index%keys, kind=i8)
+            if (index%keys(k) /= cell_key(index, cell)) exit
+            bead = index%order(k)
+            if (norm2(centres(:, bead) - point) >= radius) cycle
+            n_found = n_found + 1
+            if (n_found > size(found)) then
+              allocate (grown(2 * size(found)))
+              grown(1:size(found)) = found
+              call move_alloc(grown, found)
+            end if
+            found(n_found) = bead
+          end do
+        end do
+      end do
+    end do
+  end subroutine beads_within
+
+  !> First position whose key is >= target (size+1 if none).
+  pure integer(i8) function lower_bound(keys, target)
+    integer(i8), intent(in) :: keys(:), target
+    integer(i8) :: low, high, middle
+    low = 1
+    high = size(keys, kind=i8) + 1
+    do while (low < high)
+      middle = (low + high) / 2
+      if (keys(middle) < target) then
+        low = middle + 1
+      else
+        high = middle
+      end if
+    end do
+    lower_bound = low
+  end function lower_bound
+
+  !> Stable bottom-up merge sort of keys, carrying `order` along.
+  subroutine sort_keys(keys, order)
+    integer(i8), intent(inout) :: keys(:), order(:)
+    integer(i8), allocatable :: key_buffer(:), order_buffer(:)
+    integer(i8) :: n, width, left, middle, right, i, j, k
+
+    n = size(keys, kind=i8)
+    allocate (key_buffer(n), order_buffer(n))
+    width = 1
+    do while (width < n)
+      left = 1
+      do while (left <= n)
+        middle = min(left + width, n + 1)
+        right = min(left + 2 * width, n + 1)
+        i = left
+        j = middle
+        do k = left, right - 1
+          if (i < middle .and. (j >= right .or. keys(min(i, n)) <= keys(min(j, n)))) then
+            key_buffer(k) = keys(i)
+            order_buffer(k) = order(i)
+            i = i + 1
+          else
+            key_buffer(k) = keys(j)
+            order_buffer(k) = order(j)
+            j = j + 1
+          end if
+        end do
+        left = right
+      end do
+      keys = key_buffer
+      order = order_buffer
+      width = 2 * width
+    end do
+  end subroutine sort_keys
+end module beadmob_spatial_index

@@ -1,0 +1,268 @@
+!> Thin, checked layer over the HDF5 Fortran API for beadmob's files. Files are opened with
+!> the MPI-IO driver on the run's communicator; every routine here is collective: all ranks
+!> call it with the same arguments (replicated data), except the distributed writes, where
+!> each rank passes its own block.
+module beadmob_hdf5_support
+  use hdf5
+  use mpi, only: MPI_INFO_NULL
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t
+  implicit none
+  private
+  public :: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group
+  public :: write_attribute, write_text_dataset, write_replicated_dataset, write_distributed_columns
+
+  interface write_attribute
+    module procedure write_attribute_text, write_attribute_int, write_attribute_int8, write_attribute_real, &
+                     write_attribute_reals
+  end interface write_attribute
+
+  interface write_replicated_dataset
+    module procedure write_replicated_vector, write_replicated_matrix
+  end interface write_replicated_dataset
+
+contains
+
+  subroutine check(hdf_status, what, err)
+    integer, intent(in) :: hdf_status
+    character(len=*), intent(in) :: what
+    type(error_t), intent(inout) :: err
+    if (hdf_status < 0) call raise(err, 'HDF5 failed to ' // what)
+  end subroutine check
+
+  !> Create (truncate) `path` for collective writing on the run's communicator.
+  subroutine h5_create_parallel(ctx, path, file_id, err)
+    type(run_context_t), intent(in) :: ctx
+    character(len=*), intent(in) :: path
+    integer(hid_t), intent(out) :: file_id
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: access
+    integer :: status
+    call h5open_f(status)
+    call check(status, 'initialise', err)
+    call h5pcreate_f(H5P_FILE_ACCESS_F, access, status)
+    call h5pset_fapl_mpio_f(access, ctx%comm, MPI_INFO_NULL, status)
+    call check(status, 'set the MPI-IO file driver', err)
+    call h5fcreate_f(path, H5F_ACC_TRUNC_F, file_id, status, access_prp=access)
+    call check(status, "create '" // path // "'", err)
+    call h5pclose_f(access, status)
+  end subroutine h5_create_parallel
+
+  subroutine h5_close_file(file_id, err)
+    integer(hid_t), intent(in) :: file_id
+    type(error_t), intent(inout) :: err
+    integer :: status
+    call h5fclose_f(file_id, status)
+    call check(status, 'close the file', err)
+  end subroutine h5_close_file
+
+  subroutine h5_create_group(parent, name, group_id, err)
+    integer(hid_t), intent(in) :: parent
+    character(len=*), intent(in) :: name
+    integer(hid_t), intent(out) :: group_id
+    type(error_t), intent(inout) :: err
+    integer :: status
+    call h5gcreate_f(parent, name, group_id, status)
+    call check(status, 'create group ' // name, err)
+  end subroutine h5_create_group
+
+  subroutine h5_close_group(group_id, err)
+    integer(hid_t), intent(in) :: group_id
+    type(error_t), intent(inout) :: err
+    integer :: status
+    call h5gclose_f(group_id, status)
+    call check(status, 'close a group', err)
+  end subroutine h5_close_group
+
+  !> A fixed-length ASCII string type of the given length (h5py reads it as bytes).
+  function text_type(length) result(type_id)
+    integer, intent(in) :: length
+    integer(hid_t) :: type_id
+    integer :: status
+    call h5tcopy_f(H5T_FORTRAN_S1, type_id, status)
+    call h5tset_size_f(type_id, int(max(length, 1), size_t), status)
+    call h5tset_strpad_f(type_id, H5T_STR_NULLTERM_F, status)
+  end function text_type
+
+  subroutine write_attribute_text(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name, value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, attribute, type_id
+    integer :: status
+    call h5screate_f(H5S_SCALAR_F, space, status)
+    type_id = text_type(len(value))
+    call h5acreate_f(location, name, type_id, space, attribute, status)
+    call check(status, 'create attribute ' // name, err)
+    call h5awrite_f(attribute, type_id, value, [1_hsize_t], status)
+    call check(status, 'write attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+    call h5tclose_f(type_id, status)
+    call h5sclose_f(space, status)
+  end subroutine write_attribute_text
+
+  subroutine write_attribute_int(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: value
+    type(error_t), intent(inout) :: err
+    call write_attribute_int8(location, name, int(value, i8), err)
+  end subroutine write_attribute_int
+
+  subroutine write_attribute_int8(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    integer(i8), intent(in) :: value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, attribute
+    integer :: status
+    integer(i8), target :: buffer
+    buffer = value
+    call h5screate_f(H5S_SCALAR_F, space, status)
+    call h5acreate_f(location, name, H5T_STD_I64LE, space, attribute, status)
+    call check(status, 'create attribute ' // name, err)
+    call h5awrite_f(attribute, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc_of(buffer), status)
+    call check(status, 'write attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+    call h5sclose_f(space, status)
+  end subroutine write_attribute_int8
+
+  function c_loc_of(value) result(pointer)
+    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc
+    integer(i8), target, intent(in) :: value
+    type(c_ptr) :: pointer
+    pointer = c_loc(value)
+  end function c_loc_of
+
+  subroutine write_attribute_real(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, attribute
+    integer :: status
+    call h5screate_f(H5S_SCALAR_F, space, status)
+    call h5acreate_f(location, name, H5T_NATIVE_DOUBLE, space, attribute, status)
+    call check(status, 'create attribute ' // name, err)
+    call h5awrite_f(attribute, H5T_NATIVE_DOUBLE, value, [1_hsize_t], status)
+    call check(status, 'write attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+    call h5sclose_f(space, status)
+  end subroutine write_attribute_real
+
+  subroutine write_attribute_reals(location, name, values, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:)
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, attribute
+    integer :: status
+    integer(hsize_t) :: dims(1)
+    dims = size(values)
+    call h5screate_simple_f(1, dims, space, status)
+    call h5acreate_f(location, name, H5T_NATIVE_DOUBLE, space, attribute, status)
+    call check(status, 'create attribute ' // name, err)
+    call h5awrite_f(attribute, H5T_NATIVE_DOUBLE, values, dims, status)
+    call check(status, 'write attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+    call h5sclose_f(space, status)
+  end subroutine write_attribute_reals
+
+  !> Scalar string dataset, written by rank 0 within a collective call.
+  subroutine write_text_dataset(ctx, location, name, value, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name, value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, dataset, type_id
+    integer :: status
+    call h5screate_f(H5S_SCALAR_F, space, status)
+    type_id = text_type(len(value))
+    call h5dcreate_f(location, name, type_id, space, dataset, status)
+    call check(status, 'create dataset ' // name, err)
+    if (ctx%rank /= 0) call h5sselect_none_f(space, status)
+    call h5dwrite_f(dataset, type_id, value, [1_hsize_t], status, mem_space_id=space, file_space_id=space)
+    call check(status, 'write dataset ' // name, err)
+    call h5dclose_f(dataset, status)
+    call h5tclose_f(type_id, status)
+    call h5sclose_f(space, status)
+  end subroutine write_text_dataset
+
+  subroutine write_replicated_vector(ctx, location, name, values, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:)
+    type(error_t), intent(inout) :: err
+    call write_replicated(ctx, location, name, values, [int(size(values), hsize_t)], err)
+  end subroutine write_replicated_vector
+
+  !> A Fortran (m, n) array appears as (n, m) to C readers such as h5py.
+  subroutine write_replicated_matrix(ctx, location, name, values, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:, :)
+    type(error_t), intent(inout) :: err
+    call write_replicated(ctx, location, name, values, int(shape(values), hsize_t), err)
+  end subroutine write_replicated_matrix
+
+  !> Small data every rank holds: rank 0 writes it, the others select nothing.
+  subroutine write_replicated(ctx, location, name, values, dims, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(*)
+    integer(hsize_t), intent(in) :: dims(:)
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, dataset
+    integer :: status
+    call h5screate_simple_f(size(dims), dims, space, status)
+    call h5dcreate_f(location, name, H5T_NATIVE_DOUBLE, space, dataset, status)
+    call check(status, 'create dataset ' // name, err)
+    if (ctx%rank /= 0) call h5sselect_none_f(space, status)
+    call h5dwrite_f(dataset, H5T_NATIVE_DOUBLE, values(1:product(dims)), dims, status, &
+                    mem_space_id=space, file_space_id=space)
+    call check(status, 'write dataset ' // name, err)
+    call h5dclose_f(dataset, status)
+    call h5sclose_f(space, status)
+  end subroutine write_replicated
+
+  !> A (rows, n_total) array distributed by columns: this rank holds columns
+  !> first..first+size(block,2)-1. Written with one collective MPI-IO transfer.
+  subroutine write_distributed_columns(location, name, block, first, n_total, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: block(:, :)
+    integer(i8), intent(in) :: first, n_total
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: file_space, memory_space, dataset, transfer
+    integer(hsize_t) :: file_dims(2), block_dims(2), offset(2)
+    integer :: status
+    file_dims = [int(size(block, 1), hsize_t), int(n_total, hsize_t)]
+    block_dims = [int(size(block, 1), hsize_t), int(size(block, 2), hsize_t)]
+    offset = [0_hsize_t, int(first - 1, hsize_t)]
+    call h5screate_simple_f(2, file_dims, file_space, status)
+    call h5dcreate_f(location, name, H5T_NATIVE_DOUBLE, file_space, dataset, status)
+    call check(status, 'create dataset ' // name, err)
+    call h5screate_simple_f(2, block_dims, memory_space, status)
+    if (block_dims(2) > 0) then
+      call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, offset, block_dims, status)
+    else
+      call h5sselect_none_f(file_space, status)
+      call h5sselect_none_f(memory_space, status)
+    end if
+    call check(status, 'select the block of ' // name // ' starting at column ' // str(first), err)
+    call h5pcreate_f(H5P_DATASET_XFER_F, transfer, status)
+    call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, status)
+    call h5dwrite_f(dataset, H5T_NATIVE_DOUBLE, block, block_dims, status, &
+                    mem_space_id=memory_space, file_space_id=file_space, xfer_prp=transfer)
+    call check(status, 'write dataset ' // name, err)
+    call h5pclose_f(transfer, status)
+    call h5sclose_f(memory_space, status)
+    call h5dclose_f(dataset, status)
+    call h5sclose_f(file_space, status)
+  end subroutine write_distributed_columns
+end module beadmob_hdf5_support

@@ -1,0 +1,313 @@
+!> The run description: a Fortran namelist file (the ecosystem's native, dependency-free
+!> key = value format, as used by many simulation codes), groups &run and &shape.
+!> Every rank parses the same broadcast text, so all ranks hold the same configuration
+!> and fail on the same error.
+module beadmob_input_config
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  implicit none
+  private
+  public :: run_config_t, shape_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
+  public :: default_output_path
+
+  real(dp), parameter :: unset_real = -huge(1.0_dp)
+  integer, parameter :: unset_int = -huge(1)
+  character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
+  character(len=*), parameter :: known_groups(2) = [character(len=8) :: 'run', 'shape']
+
+  !> The &shape group: a shape name and the parameters that shape takes (others stay unset).
+  type :: shape_config_t
+    character(len=64) :: name = 'cone'
+    character(len=1024) :: file = ''
+    character(len=256) :: dataset = '/geometry/positions'
+    real(dp) :: reference_length = unset_real
+    ! Paper shapes (settlers paper, appendix "Bead model ...").
+    real(dp) :: base_diameter = unset_real, height = unset_real
+    real(dp) :: length = unset_real, middle_height = unset_real, width = unset_real
+    real(dp) :: semi_major = unset_real, semi_minor = unset_real, pipe_radius = unset_real
+    real(dp) :: gap_half_angle = unset_real, gap_arc_length = unset_real
+    real(dp) :: scale = unset_real, section_ratio = unset_real
+    ! Simple shapes.
+    real(dp) :: separation = unset_real, radius = unset_real
+    real(dp) :: major_radius = unset_real, minor_radius = unset_real
+    real(dp) :: semi_axes(3) = unset_real
+    integer :: n_beads = unset_int
+    integer :: box_beads(3) = unset_int
+  end type shape_config_t
+
+  type :: run_config_t
+    !> Input file path, or 'built-in default' when run without one.
+    character(len=:), allocatable :: source
+    !> The input text as given (echoed into the result file).
+    character(len=:), allocatable :: text
+    character(len=1024) :: output = default_output_path
+    !> Beads overlap when their centres are closer than 1 - overlap_tolerance (relative to d).
+    real(dp) :: overlap_tolerance = 1.0e-6_dp
+    type(shape_config_t) :: shape
+  end type run_config_t
+
+  interface is_set
+    module procedure is_set_real, is_set_int
+  end interface is_set
+
+contains
+
+  elemental logical function is_set_real(value)
+    real(dp), intent(in) :: value
+    is_set_real = value /= unset_real
+  end function is_set_real
+
+  elemental logical function is_set_int(value)
+    integer, intent(in) :: value
+    is_set_int = value /= unset_int
+  end function is_set_int
+
+  !> Parse the namelist text of an input file (`source` names it in messages).
+  !> An empty text means: the built-in default run (the paper's cone).
+  subroutine parse_input_text(text, source, config, err)
+    character(len=*), intent(in) :: text, source
+    type(run_config_t), intent(out) :: config
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: lines(:)
+    logical :: found
+
+    config%source = source
+    config%text = text
+    if (len_trim(text) == 0 .and. source == 'built-in default') return
+    call split_lines(text, lines)
+    call check_group_names(lines, source, err)
+    if (err%failed) return
+    call read_run_group(lines, source, config, err)
+    if (err%failed) return
+    call read_shape_group(lines, source, config%shape, found, err)
+    if (err%failed) return
+    if (.not. found) call raise(err, source // ': no &shape group (say which bead model to build, e.g. &shape name=''cone'' /)')
+    ! A relative bead file path is relative to the input file, wherever the run starts.
+    if (len_trim(config%shape%file) > 0 .and. config%shape%file(1:1) /= '/' .and. index(source, '/') > 0) &
+      config%shape%file = source(1:index(source, '/', back=.true.)) // trim(config%shape%file)
+    if (len_trim(config%output) == 0) call raise(err, source // ': &run output is empty')
+    if (.not. (config%overlap_tolerance >= 0.0_dp .and. config%overlap_tolerance < 1.0_dp)) &
+      call raise(err, source // ': &run overlap_tolerance must be in [0, 1), got ' // str(config%overlap_tolerance))
+  end subroutine parse_input_text
+
+  subroutine read_run_group(lines, source, config, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(run_config_t), intent(inout) :: config
+    type(error_t), intent(inout) :: err
+    character(len=1024) :: output
+    real(dp) :: overlap_tolerance
+    integer :: status
+    character(len=512) :: message
+    namelist /run/ output, overlap_tolerance
+
+    output = config%output
+    overlap_tolerance = config%overlap_tolerance
+    read (lines, nml=run, iostat=status, iomsg=message)
+    if (status > 0) then
+      call raise(err, namelist_error(lines, source, 'run', message))
+      return
+    end if
+    config%output = output
+    config%overlap_tolerance = overlap_tolerance
+  end subroutine read_run_group
+
+  subroutine read_shape_group(lines, source, shape_config, found, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(shape_config_t), intent(inout) :: shape_config
+    logical, intent(out) :: found
+    type(error_t), intent(inout) :: err
+    character(len=64) :: name
+    character(len=1024) :: file
+    character(len=256) :: dataset
+    real(dp) :: reference_length, base_diameter, height, length, middle_height, width, semi_major, semi_minor, &
+                pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, radius, &
+                major_radius, minor_radius, semi_axes(3)
+    integer :: n_beads, box_beads(3), status
+    character(len=512) :: message
+    namelist /shape/ name, file, dataset, reference_length, base_diameter, height, length, middle_height, width, &
+      semi_major, semi_minor, pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, &
+      radius, major_radius, minor_radius, semi_axes, n_beads, box_beads
+
+    associate (c => shape_config)
+      name = c%name; file = c%file; dataset = c%dataset; reference_length = c%reference_length
+      base_diameter = c%base_diameter; height = c%height; length = c%length; middle_height = c%middle_height
+      width = c%width; semi_major = c%semi_major; semi_minor = c%semi_minor; pipe_radius = c%pipe_radius
+      gap_half_angle = c%gap_half_angle; gap_arc_length = c%gap_arc_length; scale = c%scale
+      section_ratio = c%section_ratio; separation = c%separation; radius = c%radius
+      major_radius = c%major_radius; minor_radius = c%minor_radius; semi_axes = c%semi_axes
+      n_beads = c%n_beads; box_beads = c%box_beads
+    end associate
+    ! gfortran reports success when the group is absent from an internal file: look for it.
+    found = has_group(lines, 'shape')
+    if (.not. found) return
+    read (lines, nml=shape, iostat=status, iomsg=message)
+    if (status > 0) then
+      call raise(err, namelist_error(lines, source, 'shape', message))
+      return
+    end if
+    shape_config = shape_config_t(name=name, file=file, dataset=dataset, reference_length=reference_length, &
+      base_diameter=base_diameter, height=height, length=length, middle_height=middle_height, width=width, &
+      semi_major=semi_major, semi_minor=semi_minor, pipe_radius=pipe_radius, gap_half_angle=gap_half_angle, &
+      gap_arc_length=gap_arc_length, scale=scale, section_ratio=section_ratio, separation=separation, &
+      radius=radius, major_radius=major_radius, minor_radius=minor_radius, semi_axes=semi_axes, &
+      n_beads=n_beads, box_beads=box_beads)
+  end subroutine read_shape_group
+
+  !> The configuration actually used, written back as namelists (defaults made visible).
+  function effective_input_text(config) result(text)
+    type(run_config_t), intent(in) :: config
+    character(len=:), allocatable :: text
+    character(len=256) :: line
+    text = '&run' // new_line('a') // "  output = '" // trim(config%output) // "'" // new_line('a')
+    write (line, '(a, es23.16)') '  overlap_tolerance = ', config%overlap_tolerance
+    text = text // trim(line) // new_line('a') // '/' // new_line('a')
+    text = text // '&shape' // new_line('a') // "  name = '" // trim(config%shape%name) // "'" // new_line('a')
+    associate (c => config%shape)
+      if (len_trim(c%file) > 0) text = text // "  file = '" // trim(c%file) // "'" // new_line('a') // &
+                                       "  dataset = '" // trim(c%dataset) // "'" // new_line('a')
+      call add_real('reference_length', c%reference_length)
+      call add_real('base_diameter', c%base_diameter)
+      call add_real('height', c%height)
+      call add_real('length', c%length)
+      call add_real('middle_height', c%middle_height)
+      call add_real('width', c%width)
+      call add_real('semi_major', c%semi_major)
+      call add_real('semi_minor', c%semi_minor)
+      call add_real('pipe_radius', c%pipe_radius)
+      call add_real('gap_half_angle', c%gap_half_angle)
+      call add_real('gap_arc_length', c%gap_arc_length)
+      call add_real('scale', c%scale)
+      call add_real('section_ratio', c%section_ratio)
+      call add_real('separation', c%separation)
+      call add_real('radius', c%radius)
+      call add_real('major_radius', c%major_radius)
+      call add_real('minor_radius', c%minor_radius)
+      if (all(is_set(c%semi_axes))) then
+        write (line, '(a, 3(es23.16, :, ", "))') '  semi_axes = ', c%semi_axes
+        text = text // trim(line) // new_line('a')
+      end if
+      if (is_set(c%n_beads)) text = text // '  n_beads = ' // str(c%n_beads) // new_line('a')
+      if (all(is_set(c%box_beads))) text = text // '  box_beads = ' // str(c%box_beads(1)) // ', ' // &
+                                           str(c%box_beads(2)) // ', ' // str(c%box_beads(3)) // new_line('a')
+    end associate
+    text = text // '/' // new_line('a')
+  contains
+    subroutine add_real(name, value)
+      character(len=*), intent(in) :: name
+      real(dp), intent(in) :: value
+      if (.not. is_set(value)) return
+      write (line, '(a, " = ", es23.16)') '  ' // name, value
+      text = text // trim(line) // new_line('a')
+    end subroutine add_real
+  end function effective_input_text
+
+  !> Lines starting with '&' must name a known group: a misspelt group would be ignored.
+  subroutine check_group_names(lines, source, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(error_t), intent(inout) :: err
+    integer :: i
+    character(len=:), allocatable :: group
+    do i = 1, size(lines)
+      group = group_on_line(lines(i))
+      if (len(group) == 0 .or. group == 'end') cycle
+      if (.not. any(known_groups == group)) then
+        call raise(err, source // ' line ' // str(i) // ': unknown namelist group &' // group // &
+                   ' (known groups: &run, &shape)')
+        return
+      end if
+    end do
+  end subroutine check_group_names
+
+  pure logical function has_group(lines, group)
+    character(len=*), intent(in) :: lines(:), group
+    integer :: i
+    has_group = .false.
+    do i = 1, size(lines)
+      if (group_on_line(lines(i)) == group) has_group = .true.
+    end do
+  end function has_group
+
+  !> The lower-case group name opened on this line ('&shape ...'), or '' if none.
+  pure function group_on_line(line) result(group)
+    character(len=*), intent(in) :: line
+    character(len=:), allocatable :: group
+    character(len=:), allocatable :: text
+    integer :: stop_at
+    text = trim(adjustl(line))
+    group = ''
+    if (len(text) < 2) return
+    if (text(1:1) /= '&') return
+    stop_at = scan(text(2:), ' /,')
+    if (stop_at == 0) then
+      group = trim(lower(text(2:)))
+    else
+      group = lower(text(2:stop_at))
+    end if
+  end function group_on_line
+
+  !> Message for a namelist read error, with the line of the offending name when it can be found.
+  function namelist_error(lines, source, group, message) result(text)
+    character(len=*), intent(in) :: lines(:), source, group, message
+    character(len=:), allocatable :: text
+    integer :: i, at
+    character(len=:), allocatable :: name
+    text = source // ': error in namelist &' // group // ': ' // trim(message)
+    at = index(message, 'object name ')
+    if (at == 0) return
+    name = lower(trim(message(at + len('object name '):)))
+    do i = 1, size(lines)
+      if (index(lower(lines(i)), name) > 0) then
+        text = source // ' line ' // str(i) // ': error in namelist &' // group // ': ' // trim(message)
+        return
+      end if
+    end do
+  end function namelist_error
+
+  subroutine split_lines(text, lines)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable, intent(out) :: lines(:)
+    integer :: n_lines, longest, start, i, k, line_end
+    n_lines = 0
+    longest = 1
+    start = 1
+    do i = 1, len(text) + 1
+      if (i > len(text)) then
+        if (i > start) then
+          n_lines = n_lines + 1
+          longest = max(longest, i - start)
+        end if
+      else if (text(i:i) == new_line('a')) then
+        n_lines = n_lines + 1
+        longest = max(longest, i - start)
+        start = i + 1
+      end if
+    end do
+    allocate (character(len=longest) :: lines(max(n_lines, 1)))
+    lines = ''
+    start = 1
+    k = 0
+    do while (start <= len(text))
+      line_end = index(text(start:), new_line('a'))
+      if (line_end == 0) then
+        line_end = len(text) + 1
+      else
+        line_end = start + line_end - 1
+      end if
+      k = k + 1
+      lines(k) = text(start:line_end - 1)
+      start = line_end + 1
+    end do
+  end subroutine split_lines
+
+  pure function lower(text) result(low)
+    character(len=*), intent(in) :: text
+    character(len=len(text)) :: low
+    integer :: i, code
+    low = text
+    do i = 1, len(text)
+      code = iachar(text(i:i))
+      if (code >= iachar('A') .and. code <= iachar('Z')) low(i:i) = achar(code + 32)
+    end do
+  end function lower
+end module beadmob_input_config

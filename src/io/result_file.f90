@@ -1,0 +1,143 @@
+!> The result file of a run (schema in README.md, "Output"). Written collectively with
+!> parallel HDF5 to '<output>.partial' and renamed to '<output>' only when complete, so a
+!> failed run never leaves a half-written result under the requested name.
+module beadmob_result_file
+  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
+  use hdf5, only: hid_t
+  use mpi, only: MPI_Barrier
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_parallel, only: run_context_t, block_range, agree_on_error
+  use beadmob_build_info, only: program_version, git_hash
+  use beadmob_input_config, only: run_config_t, effective_input_text
+  use beadmob_bead_model, only: bead_model_t
+  use beadmob_body_frame, only: body_frame_t
+  use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
+                                  write_attribute, write_text_dataset, write_replicated_dataset, &
+                                  write_distributed_columns
+  implicit none
+  private
+  public :: write_result_file, result_format, result_format_version, partial_suffix
+
+  character(len=*), parameter :: result_format = 'beadmob-result'
+  integer, parameter :: result_format_version = 1
+  character(len=*), parameter :: partial_suffix = '.partial'
+
+  interface
+    integer(c_int) function c_rename(old_path, new_path) bind(c, name='rename')
+      import :: c_char, c_int
+      character(kind=c_char), intent(in) :: old_path(*), new_path(*)
+    end function c_rename
+    integer(c_int) function c_unlink(path) bind(c, name='unlink')
+      import :: c_char, c_int
+      character(kind=c_char), intent(in) :: path(*)
+    end function c_unlink
+  end interface
+
+contains
+
+  !> Collective. On failure the partial file is removed and `err` holds the same message on all ranks.
+  subroutine write_result_file(ctx, config, model, frame, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(bead_model_t), intent(in) :: model
+    type(body_frame_t), intent(in) :: frame
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: final_path, partial_path
+    integer(hid_t) :: file_id
+    integer :: ierr
+
+    final_path = trim(config%output)
+    partial_path = final_path // partial_suffix
+    call h5_create_parallel(ctx, partial_path, file_id, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call write_metadata(ctx, file_id, config, err)
+    call write_shape(file_id, model, err)
+    call write_geometry(ctx, file_id, model, frame, err)
+    call h5_close_file(file_id, err)
+    call agree_on_error(ctx, err)
+    call MPI_Barrier(ctx%comm, ierr)
+    if (ctx%rank == 0) then
+      if (err%failed) then
+        ierr = c_unlink(partial_path // c_null_char)
+      else if (c_rename(partial_path // c_null_char, final_path // c_null_char) /= 0) then
+        call raise(err, "cannot rename '" // partial_path // "' to '" // final_path // "'")
+        ierr = c_unlink(partial_path // c_null_char)
+      end if
+    end if
+    call agree_on_error(ctx, err)
+  end subroutine write_result_file
+
+  subroutine write_metadata(ctx, file_id, config, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(run_config_t), intent(in) :: config
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    call write_attribute(file_id, 'format', result_format, err)
+    call write_attribute(file_id, 'format_version', result_format_version, err)
+    call write_attribute(file_id, 'program_version', program_version, err)
+    call write_attribute(file_id, 'git_hash', git_hash, err)
+    call write_attribute(file_id, 'created', timestamp(), err)
+    call write_attribute(file_id, 'mpi_ranks', ctx%n_ranks, err)
+
+    call h5_create_group(file_id, 'input', group, err)
+    call write_attribute(group, 'source', config%source, err)
+    call write_text_dataset(ctx, group, 'namelist', config%text, err)
+    call write_text_dataset(ctx, group, 'effective_namelist', effective_input_text(config), err)
+    call h5_close_group(group, err)
+
+    call h5_create_group(file_id, 'units', group, err)
+    call write_attribute(group, 'length', 'd (bead diameter; bead radius a = d/2)', err)
+    call write_attribute(group, 'bead_diameter', 1.0_dp, err)
+    call h5_close_group(group, err)
+  end subroutine write_metadata
+
+  subroutine write_shape(file_id, model, err)
+    integer(hid_t), intent(in) :: file_id
+    type(bead_model_t), intent(in) :: model
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    integer :: k
+    call h5_create_group(file_id, 'shape', group, err)
+    call write_attribute(group, 'name', model%shape_name, err)
+    call write_attribute(group, 'source', model%source, err)
+    call write_attribute(group, 'reference_length', model%reference_length, err)
+    do k = 1, size(model%parameters)
+      call write_attribute(group, trim(model%parameters(k)%name), model%parameters(k)%value, err)
+    end do
+    call h5_close_group(group, err)
+  end subroutine write_shape
+
+  subroutine write_geometry(ctx, file_id, model, frame, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(bead_model_t), intent(in) :: model
+    type(body_frame_t), intent(in) :: frame
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    integer(i8) :: first, count
+    call h5_create_group(file_id, 'geometry', group, err)
+    call write_attribute(group, 'n_beads', model%n_beads(), err)
+    call write_attribute(group, 'paper_class', merge(1, 0, frame%paper_class), err)
+    call block_range(ctx, model%n_beads(), first, count)
+    call write_distributed_columns(group, 'positions', model%centres(:, first:first + count - 1), first, &
+                                   model%n_beads(), err)
+    call write_replicated_dataset(ctx, group, 'centre_of_mass', frame%centre_of_mass, err)
+    call write_replicated_dataset(ctx, group, 'body_axes', frame%axes, err)
+    call write_replicated_dataset(ctx, group, 'extent', frame%extent, err)
+    call write_replicated_dataset(ctx, group, 'mirror_planes', merge(1.0_dp, 0.0_dp, frame%mirror_plane), err)
+    call h5_close_group(group, err)
+  end subroutine write_geometry
+
+  function timestamp() result(text)
+    character(len=:), allocatable :: text
+    character(len=8) :: date
+    character(len=10) :: time
+    character(len=5) :: zone
+    call date_and_time(date, time, zone)
+    text = date(1:4) // '-' // date(5:6) // '-' // date(7:8) // 'T' // time(1:2) // ':' // time(3:4) // ':' // &
+           time(5:6) // zone(1:3) // ':' // zone(4:5)
+  end function timestamp
+end module beadmob_result_file

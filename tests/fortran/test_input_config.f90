@@ -1,0 +1,74 @@
+!> The namelist input: values read, defaults kept, errors located, effective text re-readable.
+program test_input_config
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t
+  use beadmob_input_config, only: run_config_t, parse_input_text, effective_input_text, is_set
+  use beadmob_testing
+  implicit none
+  type(test_suite_t) :: suite
+  character(len=*), parameter :: nl = new_line('a')
+
+  suite = start_tests('test_input_config')
+  call test_values_and_defaults()
+  call test_round_trip()
+  call test_errors()
+  call finish_tests(suite)
+
+contains
+
+  subroutine test_values_and_defaults()
+    type(run_config_t) :: config
+    type(error_t) :: err
+    call parse_input_text("! comment line" // nl // "&run output = 'x.h5' /" // nl // &
+                          "&shape name = 'spheroid', semi_axes = 4, 3, 2.5 /" // nl, 'cases/a.nml', config, err)
+    call check(suite, .not. err%failed, 'valid input parses')
+    call check_equal(suite, trim(config%output), 'x.h5', 'output read')
+    call check_equal(suite, trim(config%shape%name), 'spheroid', 'shape name read')
+    call check(suite, all(config%shape%semi_axes == [4.0_dp, 3.0_dp, 2.5_dp]), 'semi_axes read')
+    call check(suite, .not. is_set(config%shape%radius), 'radius stays unset')
+    call check_close(suite, config%overlap_tolerance, 1.0e-6_dp, 0.0_dp, 'overlap tolerance default')
+
+    call parse_input_text("&shape name = 'bead_file', file = 'beads.txt' /", 'cases/b.nml', config, err)
+    call check_equal(suite, trim(config%shape%file), 'cases/beads.txt', 'bead file relative to the input file')
+    call parse_input_text("&shape name = 'bead_file', file = '/abs/beads.txt' /", 'cases/b.nml', config, err)
+    call check_equal(suite, trim(config%shape%file), '/abs/beads.txt', 'absolute bead file path kept')
+    call check_equal(suite, trim(config%output), 'beadmob_result.h5', 'output default')
+  end subroutine test_values_and_defaults
+
+  !> The effective namelist written into result files reads back to the same configuration.
+  subroutine test_round_trip()
+    type(run_config_t) :: first, second
+    type(error_t) :: err
+    call parse_input_text("&shape name = 'ring_2mm', pipe_radius = 3.6000000000000001, gap_arc_length = 10.5 /" // &
+                          nl // "&run overlap_tolerance = 1e-3 /", 'in.nml', first, err)
+    call parse_input_text(effective_input_text(first), 'effective.nml', second, err)
+    call check(suite, .not. err%failed, 'effective namelist parses')
+    call check_equal(suite, trim(second%shape%name), 'ring_2mm', 'round trip: name')
+    call check(suite, second%shape%pipe_radius == first%shape%pipe_radius, 'round trip: pipe_radius bit for bit')
+    call check(suite, second%shape%gap_arc_length == 10.5_dp, 'round trip: gap_arc_length')
+    call check(suite, second%overlap_tolerance == 1.0e-3_dp, 'round trip: overlap_tolerance')
+    call check(suite, .not. is_set(second%shape%height), 'round trip: unset stays unset')
+  end subroutine test_round_trip
+
+  subroutine test_errors()
+    type(run_config_t) :: config
+    type(error_t) :: err
+    call parse_input_text("&shape name = 'cone'," // nl // "  hieght = 3 /", 'c.nml', config, err)
+    call check(suite, err%failed, 'misspelt variable rejected')
+    if (err%failed) call check(suite, index(err%message, 'c.nml line 2') > 0, 'misspelt variable located: ' // err%message)
+    err = error_t()
+    call parse_input_text("&run output = 'a.h5' /" // nl // "&shapes name = 'cone' /", 'd.nml', config, err)
+    call check(suite, err%failed, 'unknown group rejected')
+    if (err%failed) call check(suite, index(err%message, 'd.nml line 2: unknown namelist group &shapes') > 0, &
+                               'unknown group located: ' // err%message)
+    err = error_t()
+    call parse_input_text("&run output = 'a.h5' /", 'e.nml', config, err)
+    call check(suite, err%failed, 'missing &shape rejected')
+    err = error_t()
+    call parse_input_text("&run overlap_tolerance = 2 /" // nl // "&shape name='cone' /", 'f.nml', config, err)
+    call check(suite, err%failed, 'overlap tolerance 2 rejected')
+    err = error_t()
+    call parse_input_text("&shape name = 'cone', height = abc /", 'g.nml', config, err)
+    call check(suite, err%failed, 'non-numeric value rejected')
+  end subroutine test_errors
+end program test_input_config
