@@ -38,7 +38,7 @@ program beadmob
 
   if (err%failed .and. ctx%rank == 0) write (error_unit, '(a)') 'beadmob: error: ' // err%message
   PetscCallA(PetscFinalize(ierr))
-  if (err%failed) error stop 1
+  if (err%failed) stop 1, quiet=.true.
 
 contains
 

@@ -4,6 +4,11 @@
 !> How each value follows from the paper is documented in shapes/README.md.
 module beadmob_paper_presets
   use beadmob_kinds, only: dp
+  use beadmob_paper_shapes, only: paper_cone_base_diameter, paper_cone_height, paper_arrowhead_length, &
+    paper_arrowhead_height, paper_arrowhead_middle_height, paper_arrowhead_width, paper_ring_semi_major, &
+    paper_ring_semi_minor, paper_ring_gap_half_angle_deg, paper_ring_pipe_radius, paper_crescent_scale, &
+    paper_crescent_section_ratio, paper_cone_reference_length, paper_arrowhead_reference_length, &
+    paper_crescent_reference_length, paper_ring_reference_length
   implicit none
   private
   public :: paper_shape_t, paper_shape_preset, is_paper_preset
@@ -15,11 +20,6 @@ module beadmob_paper_presets
     real(dp) :: semi_major = 0.0_dp, semi_minor = 0.0_dp, pipe_radius = 0.0_dp, gap_half_angle = 0.0_dp
     real(dp) :: scale = 0.0_dp, section_ratio = 0.0_dp
   end type paper_shape_t
-
-  !> Measured sizes in mm (paper, section "Rigid particles").
-  real(dp), parameter :: cone_diameter_mm = 4.39_dp, cone_height_mm = 10.45_dp
-  real(dp), parameter :: arrow_length_mm = 6.28_dp, arrow_height_mm = 4.93_dp, arrow_middle_mm = 3.81_dp, &
-                         arrow_width_mm = 2.33_dp
 
 contains
 
@@ -33,37 +33,23 @@ contains
   pure function paper_shape_preset(name) result(preset)
     character(len=*), intent(in) :: name
     type(paper_shape_t) :: preset
+    integer :: ring
     select case (name)
     case ('cone')
-      preset%reference_length = 21.0_dp
-      preset%base_diameter = 21.0_dp
-      preset%height = 21.0_dp * cone_height_mm / cone_diameter_mm
+      preset = paper_shape_t(reference_length=paper_cone_reference_length, base_diameter=paper_cone_base_diameter, &
+                             height=paper_cone_height)
     case ('arrowhead')
-      preset%reference_length = 29.0_dp
-      preset%length = 29.0_dp
-      preset%height = 29.0_dp * arrow_height_mm / arrow_length_mm
-      preset%middle_height = 29.0_dp * arrow_middle_mm / arrow_length_mm
-      preset%width = 29.0_dp * arrow_width_mm / arrow_length_mm
+      preset = paper_shape_t(reference_length=paper_arrowhead_reference_length, length=paper_arrowhead_length, &
+                             height=paper_arrowhead_height, middle_height=paper_arrowhead_middle_height, &
+                             width=paper_arrowhead_width)
     case ('crescent_moon')
-      preset%reference_length = 55.0_dp
-      preset%scale = 6.2_dp
-      preset%section_ratio = 0.6_dp
-    case ('ring_1mm')
-      preset = ring(67.0_dp, 30.90_dp, 27.90_dp, 10.0_dp + 47.0_dp / 60.0_dp)
-    case ('ring_2mm')
-      preset = ring(73.0_dp, 33.72_dp, 27.60_dp, 20.0_dp + 32.0_dp / 60.0_dp)
-    case ('ring_3mm')
-      preset = ring(81.0_dp, 37.08_dp, 27.48_dp, 28.0_dp + 30.0_dp / 60.0_dp)
-    case ('ring_4mm')
-      preset = ring(85.0_dp, 39.06_dp, 27.36_dp, 36.0_dp + 35.0_dp / 60.0_dp)
+      preset = paper_shape_t(reference_length=paper_crescent_reference_length, scale=paper_crescent_scale, &
+                             section_ratio=paper_crescent_section_ratio)
+    case ('ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm')
+      ring = iachar(name(6:6)) - iachar('0')
+      preset = paper_shape_t(reference_length=paper_ring_reference_length(ring), &
+                             semi_major=paper_ring_semi_major(ring), semi_minor=paper_ring_semi_minor(ring), &
+                             pipe_radius=paper_ring_pipe_radius, gap_half_angle=paper_ring_gap_half_angle_deg(ring))
     end select
-  contains
-    pure function ring(reference_length, semi_major, semi_minor, gap_half_angle) result(r)
-      real(dp), intent(in) :: reference_length, semi_major, semi_minor, gap_half_angle
-      type(paper_shape_t) :: r
-      ! All four rings: pipe radius R = 3.6 d (paper, appendix "Open Ring", items (a)-(d)).
-      r = paper_shape_t(reference_length=reference_length, semi_major=semi_major, semi_minor=semi_minor, &
-                        pipe_radius=3.6_dp, gap_half_angle=gap_half_angle)
-    end function ring
   end function paper_shape_preset
 end module beadmob_paper_presets

@@ -86,6 +86,14 @@ contains
     call h5tset_strpad_f(type_id, H5T_STR_NULLTERM_F, status)
   end function text_type
 
+  !> At least one character: an empty string is stored as a single NUL (read back as '').
+  pure function null_padded(value) result(buffer)
+    character(len=*), intent(in) :: value
+    character(len=max(len(value), 1)) :: buffer
+    buffer = achar(0)
+    buffer(1:len(value)) = value
+  end function null_padded
+
   subroutine write_attribute_text(location, name, value, err)
     integer(hid_t), intent(in) :: location
     character(len=*), intent(in) :: name, value
@@ -96,7 +104,7 @@ contains
     type_id = text_type(len(value))
     call h5acreate_f(location, name, type_id, space, attribute, status)
     call check(status, 'create attribute ' // name, err)
-    call h5awrite_f(attribute, type_id, value, [1_hsize_t], status)
+    call h5awrite_f(attribute, type_id, null_padded(value), [1_hsize_t], status)
     call check(status, 'write attribute ' // name, err)
     call h5aclose_f(attribute, status)
     call h5tclose_f(type_id, status)
@@ -183,7 +191,8 @@ contains
     call h5dcreate_f(location, name, type_id, space, dataset, status)
     call check(status, 'create dataset ' // name, err)
     if (ctx%rank /= 0) call h5sselect_none_f(space, status)
-    call h5dwrite_f(dataset, type_id, value, [1_hsize_t], status, mem_space_id=space, file_space_id=space)
+    call h5dwrite_f(dataset, type_id, null_padded(value), [1_hsize_t], status, mem_space_id=space, &
+                    file_space_id=space)
     call check(status, 'write dataset ' // name, err)
     call h5dclose_f(dataset, status)
     call h5tclose_f(type_id, status)

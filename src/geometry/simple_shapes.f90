@@ -1,0 +1,185 @@
+!> Simple bead models for validation and convergence studies (single bead, pair, chain,
+!> lattice sphere, spheroid, box, torus). Sizes are in units of the bead diameter d = 1.
+!> Lattice shapes use the integer cubic lattice with a node at the origin; positions are
+!> returned as built (not recentred). A lattice node exactly on the surface is kept: the
+!> inside tests accept a relative excess of boundary_tolerance (1e-9), so that points that
+!> are on the surface in exact arithmetic (e.g. (2,0,0) for a sphere of radius 2) are kept
+!> whatever the rounding.
+!> On invalid parameters the builders call raise() and return centres of shape (3, 0).
+module beadmob_simple_shapes
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  implicit none
+  private
+  public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
+  public :: build_spheroid, build_box, build_torus, boundary_tolerance
+
+  !> Relative tolerance of the inside tests (kept points may exceed the bound by this fraction).
+  real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
+
+contains
+
+  !> One bead at the origin.
+  subroutine build_single_bead(centres, err)
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    allocate (centres(3, 1))
+    centres = 0.0_dp
+    if (err%failed) return  ! nothing can go wrong here; err is kept for a uniform interface
+  end subroutine build_single_bead
+
+  !> Two beads on the x axis at (0,0,0) and (separation,0,0); touching when separation = 1.
+  subroutine build_bead_pair(separation, centres, err)
+    real(dp), intent(in) :: separation
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    allocate (centres(3, 0))
+    if (.not. ieee_is_finite(separation)) then
+      call raise(err, 'bead_pair: separation must be finite, got ' // str(separation))
+      return
+    end if
+    if (separation < 1.0_dp) then
+      call raise(err, 'bead_pair: separation must be >= 1 (beads may not overlap), got ' &
+                 // str(separation))
+      return
+    end if
+    deallocate (centres)
+    allocate (centres(3, 2))
+    centres = 0.0_dp
+    centres(1, 2) = separation
+  end subroutine build_bead_pair
+
+  !> n_beads touching beads along x at x = 0, 1, ..., n_beads - 1.
+  subroutine build_chain(n_beads, centres, err)
+    integer, intent(in) :: n_beads
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    integer :: i
+    if (n_beads < 1) then
+      allocate (centres(3, 0))
+      call raise(err, 'chain: n_beads must be positive, got ' // str(n_beads))
+      return
+    end if
+    allocate (centres(3, n_beads))
+    centres = 0.0_dp
+    do i = 1, n_beads
+      centres(1, i) = real(i - 1, dp)
+    end do
+  end subroutine build_chain
+
+  !> All lattice nodes with |r| <= radius (node at the origin).
+  subroutine build_filled_sphere(radius, centres, err)
+    real(dp), intent(in) :: radius
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    if (.not. positive_size(radius, 'filled_sphere: radius', err)) then
+      allocate (centres(3, 0))
+      return
+    end if
+    call build_spheroid([radius, radius, radius], centres, err)
+  end subroutine build_filled_sphere
+
+  !> All lattice nodes with sum_i (x_i / a_i)**2 <= 1 (node at the origin).
+  subroutine build_spheroid(semi_axes, centres, err)
+    real(dp), intent(in) :: semi_axes(3)
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: buffer(:, :)
+    integer :: n(3), i, j, k, count
+    real(dp) :: q
+    do i = 1, 3
+      if (.not. positive_size(semi_axes(i), 'spheroid: semi_axes(' // str(i) // ')', err)) then
+        allocate (centres(3, 0))
+        return
+      end if
+    end do
+    n = floor(semi_axes * (1.0_dp + boundary_tolerance))
+    allocate (buffer(3, product(2 * n + 1)))
+    count = 0
+    do k = -n(3), n(3)
+      do j = -n(2), n(2)
+        do i = -n(1), n(1)
+          q = (i / semi_axes(1))**2 + (j / semi_axes(2))**2 + (k / semi_axes(3))**2
+          if (q <= 1.0_dp + boundary_tolerance) then
+            count = count + 1
+            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
+          end if
+        end do
+      end do
+    end do
+    centres = buffer(:, 1:count)
+  end subroutine build_spheroid
+
+  !> A rectangular block of n_x * n_y * n_z beads at (i, j, k), 0 <= i < n_x, etc.
+  subroutine build_box(n_x, n_y, n_z, centres, err)
+    integer, intent(in) :: n_x, n_y, n_z
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    integer :: i, j, k, count
+    if (min(n_x, n_y, n_z) < 1) then
+      allocate (centres(3, 0))
+      call raise(err, 'box: n_x, n_y, n_z must be positive, got ' // str(n_x) // ', ' &
+                 // str(n_y) // ', ' // str(n_z))
+      return
+    end if
+    allocate (centres(3, n_x * n_y * n_z))
+    count = 0
+    do k = 0, n_z - 1
+      do j = 0, n_y - 1
+        do i = 0, n_x - 1
+          count = count + 1
+          centres(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
+        end do
+      end do
+    end do
+  end subroutine build_box
+
+  !> Lattice nodes within minor_radius of the circle of radius major_radius in the xy plane
+  !> centred at the origin (axis z): (sqrt(x**2 + y**2) - major_radius)**2 + z**2 <= minor**2.
+  !> minor_radius > major_radius (a spindle torus) is allowed: the same distance test applies.
+  subroutine build_torus(major_radius, minor_radius, centres, err)
+    real(dp), intent(in) :: major_radius, minor_radius
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: buffer(:, :)
+    integer :: n_xy, n_z, i, j, k, count
+    real(dp) :: rho, q
+    if (.not. positive_size(major_radius, 'torus: major_radius', err)) then
+      allocate (centres(3, 0))
+      return
+    end if
+    if (.not. positive_size(minor_radius, 'torus: minor_radius', err)) then
+      allocate (centres(3, 0))
+      return
+    end if
+    n_xy = floor((major_radius + minor_radius) * (1.0_dp + boundary_tolerance))
+    n_z = floor(minor_radius * (1.0_dp + boundary_tolerance))
+    allocate (buffer(3, (2 * n_xy + 1)**2 * (2 * n_z + 1)))
+    count = 0
+    do k = -n_z, n_z
+      do j = -n_xy, n_xy
+        do i = -n_xy, n_xy
+          rho = sqrt(real(i, dp)**2 + real(j, dp)**2)
+          q = (rho - major_radius)**2 + real(k, dp)**2
+          if (q <= minor_radius**2 * (1.0_dp + boundary_tolerance)) then
+            count = count + 1
+            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
+          end if
+        end do
+      end do
+    end do
+    centres = buffer(:, 1:count)
+  end subroutine build_torus
+
+  !> True if value is finite and > 0; otherwise raises "<what> must be positive, got <value>".
+  logical function positive_size(value, what, err) result(ok)
+    real(dp), intent(in) :: value
+    character(len=*), intent(in) :: what
+    type(error_t), intent(inout) :: err
+    ok = ieee_is_finite(value)
+    if (ok) ok = value > 0.0_dp
+    if (.not. ok) call raise(err, what // ' must be positive and finite, got ' // str(value))
+  end function positive_size
+end module beadmob_simple_shapes
