@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any, Sequence, TextIO
@@ -20,6 +21,8 @@ from beadmob_post.results import BeadResult, ResultFileError, load_result
 PROGRAM_NAME = "beadmob-post"
 #: Exit status of every error, as for argparse usage errors.
 ERROR_EXIT_STATUS = 2
+#: Set this environment variable to get Python tracebacks of unexpected errors.
+DEBUG_VARIABLE = "BEADMOB_POST_DEBUG"
 
 
 class CommandError(Exception):
@@ -74,6 +77,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _report_error(str(exc))
     except (OSError, ValueError) as exc:
         return _report_error(_describe(exc))
+    except Exception as exc:  # noqa: BLE001 - last resort: one line instead of a traceback
+        if os.environ.get(DEBUG_VARIABLE):
+            raise
+        return _report_error(
+            f"unexpected {type(exc).__name__}: {exc} (set {DEBUG_VARIABLE}=1 to see the traceback)"
+        )
 
 
 def run_info(arguments: argparse.Namespace, out: TextIO) -> int:

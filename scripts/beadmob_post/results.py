@@ -97,7 +97,11 @@ def load_result(path: str | Path) -> BeadResult:
         raise ResultFileError(f"{path}: no such file")
     if path.is_dir():
         raise ResultFileError(f"{path}: is a directory, not a result file")
-    if not h5py.is_hdf5(path):
+    try:
+        is_hdf5 = h5py.is_hdf5(path)
+    except OSError as exc:
+        raise ResultFileError(f"{path}: cannot read the file: {exc}") from exc
+    if not is_hdf5:
         raise ResultFileError(f"{path} is not an HDF5 file")
     try:
         with h5py.File(path, "r") as handle:

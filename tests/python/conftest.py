@@ -8,6 +8,7 @@ program is found through the environment variable BEADMOB_TEST_OUTPUT_DIR (set b
 from __future__ import annotations
 
 import os
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -90,6 +91,13 @@ def write_result_file(
         for item in omit:
             del handle[item]
     return path
+
+
+def png_size(path) -> tuple[int, int]:
+    """(width, height) in pixels from the IHDR chunk of a PNG file."""
+    header = path.read_bytes()[:24]
+    assert header[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG file"
+    return struct.unpack(">II", header[16:24])
 
 
 @pytest.fixture

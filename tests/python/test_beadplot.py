@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import struct
-
 import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -18,15 +16,9 @@ from beadmob_post.beadplot import (
     plot_beads,
 )
 from beadmob_post.results import load_result
+from conftest import png_size
 
 VIEWS = {view.name: view for view in STANDARD_VIEWS}
-
-
-def png_size(path) -> tuple[int, int]:
-    """(width, height) in pixels from the IHDR chunk of a PNG file."""
-    header = path.read_bytes()[:24]
-    assert header[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG file"
-    return struct.unpack(">II", header[16:24])
 
 
 def test_views_look_from_the_right_handed_side():

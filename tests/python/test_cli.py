@@ -11,8 +11,7 @@ import h5py
 import numpy as np
 
 from beadmob_post.beadplot import DEFAULT_DPI, FIGURE_SIZE_INCHES
-from conftest import SCRIPTS_DIR
-from test_beadplot import png_size
+from conftest import SCRIPTS_DIR, png_size
 
 
 def assert_one_line_error(completed: subprocess.CompletedProcess, *fragments: str) -> None:
@@ -147,3 +146,25 @@ def test_module_entry_point(result_path):
     )
     assert completed.returncode == 0, completed.stderr
     assert "N = 4" in completed.stdout
+
+
+def test_truncated_hdf5_file(run_command, result_path, tmp_path):
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(result_path.read_bytes()[:2000])
+    assert_one_line_error(run_command("info", truncated), str(truncated), "cannot read the file")
+
+
+def test_unexpected_errors_are_one_line(monkeypatch, capsys, result_path):
+    from beadmob_post import cli
+
+    def broken_loader(path):
+        raise RuntimeError("boom\nsecond line")
+
+    monkeypatch.setattr(cli, "load_result", broken_loader)
+    monkeypatch.delenv(cli.DEBUG_VARIABLE, raising=False)
+    assert cli.main(["info", str(result_path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.splitlines() == [
+        "beadmob-post: error: unexpected RuntimeError: boom second line "
+        f"(set {cli.DEBUG_VARIABLE}=1 to see the traceback)"
+    ]
