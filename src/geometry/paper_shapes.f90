@@ -13,6 +13,7 @@ module beadmob_paper_shapes
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_size_checks, only: positive_size
   implicit none
   private
   public :: build_cone, build_arrowhead, build_open_ring, build_crescent_moon
@@ -452,13 +453,4 @@ contains
     end function curve_z
   end subroutine curve_z_range
 
-  !> True if value is finite and > 0; otherwise raises "<what> must be positive, got <value>".
-  logical function positive_size(value, what, err) result(ok)
-    real(dp), intent(in) :: value
-    character(len=*), intent(in) :: what
-    type(error_t), intent(inout) :: err
-    ok = ieee_is_finite(value)
-    if (ok) ok = value > 0.0_dp
-    if (.not. ok) call raise(err, what // ' must be positive and finite, got ' // str(value))
-  end function positive_size
 end module beadmob_paper_shapes

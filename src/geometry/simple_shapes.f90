@@ -11,6 +11,7 @@ module beadmob_simple_shapes
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_size_checks, only: positive_size
   implicit none
   private
   public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
@@ -173,13 +174,4 @@ contains
     centres = buffer(:, 1:count)
   end subroutine build_torus
 
-  !> True if value is finite and > 0; otherwise raises "<what> must be positive, got <value>".
-  logical function positive_size(value, what, err) result(ok)
-    real(dp), intent(in) :: value
-    character(len=*), intent(in) :: what
-    type(error_t), intent(inout) :: err
-    ok = ieee_is_finite(value)
-    if (ok) ok = value > 0.0_dp
-    if (.not. ok) call raise(err, what // ' must be positive and finite, got ' // str(value))
-  end function positive_size
 end module beadmob_simple_shapes
