@@ -5,6 +5,7 @@
 module beadmob_body_frame
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t
+  use beadmob_vector_algebra, only: cross
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
   implicit none
   private
@@ -130,10 +131,4 @@ contains
     end do
     extent_along = high - low + 1.0_dp
   end function extent_along
-
-  pure function cross(a, b) result(c)
-    real(dp), intent(in) :: a(3), b(3)
-    real(dp) :: c(3)
-    c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
-  end function cross
 end module beadmob_body_frame

@@ -1,5 +1,6 @@
 !> A small assertion module for beadmob's Fortran test programs (pFUnit is not available).
-!> Each test program: call start_tests('name'), then check_*(...), then call finish_tests().
+!> Each test program: call start_tests('name'), then check_*(...), then call finish_tests()
+!> (programs that initialise PETSc call PetscFinalize after finish_tests).
 !> Failures are counted on every rank and summed, so a test fails if any rank fails.
 module beadmob_testing
   use mpi
@@ -16,6 +17,8 @@ module beadmob_testing
     integer :: n_failed = 0
     integer :: rank = 0
     integer :: n_ranks = 1
+    !> MPI was started here (not by PETSc), so finish_tests ends it.
+    logical :: owns_mpi = .false.
   end type test_suite_t
 
   interface check_equal
@@ -31,6 +34,7 @@ contains
     logical :: already
     call MPI_Initialized(already, ierr)
     if (.not. already) call MPI_Init(ierr)
+    suite%owns_mpi = .not. already
     suite%name = name
     call MPI_Comm_rank(MPI_COMM_WORLD, suite%rank, ierr)
     call MPI_Comm_size(MPI_COMM_WORLD, suite%n_ranks, ierr)
@@ -83,7 +87,7 @@ contains
     if (suite%rank == 0) write (*, '(a)') suite%name // ': ' // str(suite%n_checks) // ' checks per rank, ' // &
       str(total_failed) // ' failed on ' // str(suite%n_ranks) // ' rank(s)'
     if (suite%n_checks == 0 .and. suite%rank == 0) write (error_unit, '(a)') 'FAILED: the test made no checks'
-    call MPI_Finalize(ierr)
+    if (suite%owns_mpi) call MPI_Finalize(ierr)
     if (total_failed > 0 .or. suite%n_checks == 0) error stop 1
   end subroutine finish_tests
 end module beadmob_testing
