@@ -195,7 +195,9 @@ def single_layer_coeffs_numeric(n, a=A_BEAD):
     C = np.zeros((3, 3))
     for s in range(3):
         rhs = np.concatenate([np.zeros(3 * P), dens[s].ravel()])
-        sol, res, rank, _ = np.linalg.lstsq(M, rhs, rcond=None)
+        cs = np.linalg.norm(M, axis=0)  # column equilibration (columns scale like a^(+-n))
+        sol, res, rank, _ = np.linalg.lstsq(M / cs, rhs, rcond=None)
+        sol = sol / cs
         assert rank == 6
         assert np.linalg.norm(M @ sol - rhs) < 1e-9 * np.linalg.norm(rhs), 'jump problem not consistent'
         C[s] = sol[:3]
@@ -440,23 +442,23 @@ def stimson_jeffery(r, a=A_BEAD, tol=1e-15, nmax=2_000_000):
     return 4.0 / 3.0 * math.sinh(al) * s
 
 
-def brenner_approach(r, a=A_BEAD, tol=1e-15, nmax=2_000_000):
-    """Drag per sphere / (6 pi eta a U) for two equal spheres moving towards each other along the line
-    of centres with speeds U (Brenner 1961, sphere approaching a plane wall at distance h = r/2;
-    the mid-plane of the symmetric pair is a no-slip plane)."""
+def maude_approach(r, a=A_BEAD, nmax=100000):
+    """Drag per sphere / (6 pi eta a U) for two equal spheres approaching each other along the line of
+    centres with speeds U (Maude 1961; Brenner 1961, two-sphere form; bispherical coordinates, cosh alpha
+    = r/(2a)):  (4/3) sinh(alpha) sum_n n(n+1)/((2n-1)(2n+3)) *
+      [ (4 cosh^2((n+1/2) alpha) + (2n+1)^2 sinh^2 alpha) / (2 sinh((2n+1) alpha) - (2n+1) sinh(2 alpha)) - 1 ].
+    NB: the mid-plane is a symmetry (slip) plane here, NOT a wall: the sphere-wall formula does not apply."""
     al = _bisph_alpha(r, a)
     s = 0.0
-    n = np.arange(1, nmax + 1, dtype=float)
-    for start in range(0, nmax, 20000):
-        nn = n[start:start + 20000]
-        x = (2 * nn + 1) * al
-        with np.errstate(over='ignore', invalid='ignore'):
-            num = 2 * np.sinh(x) + (2 * nn + 1) * math.sinh(2 * al)
-            den = 4 * np.sinh(x / 2) ** 2 - (2 * nn + 1) ** 2 * math.sinh(al) ** 2
-            frac = np.where(x < 600, num / den, 1.0)
-        t = nn * (nn + 1) / ((2 * nn - 1) * (2 * nn + 3)) * (frac - 1)
-        s += t.sum()
-        if abs(t[-1]) < tol * abs(s):
+    for n in range(1, nmax):
+        x = (2 * n + 1) * al
+        if x > 700:
+            break
+        num = 4 * math.cosh(x / 2) ** 2 + (2 * n + 1) ** 2 * math.sinh(al) ** 2
+        den = 2 * math.sinh(x) - (2 * n + 1) * math.sinh(2 * al)
+        t = n * (n + 1) / ((2 * n - 1) * (2 * n + 3)) * (num / den - 1)
+        s += t
+        if abs(t) < 1e-17 * abs(s):
             break
     return 4.0 / 3.0 * math.sinh(al) * s
 
@@ -500,7 +502,7 @@ def two_sphere_modes(r, L, L2=None, a=A_BEAD):
     """Order-L two-sphere friction in symmetric/antisymmetric modes (spheres at -r/2, +r/2 on z).
     Returns dict of normalized coefficients:
       XA_sym = force per sphere /(6 pi a U) (both move +U e_z)        [Stimson-Jeffery]
-      XA_anti = same for approach (sphere 1 +U, sphere 2 -U)          [Brenner 1961]
+      XA_anti = same for approach (sphere 1 +U, sphere 2 -U)          [Maude 1961]
       XC_sym / XC_anti = torque per sphere /(8 pi a^3 Omega), axial co-/counter-rotation
       Y_sym (2x2), Y_anti (2x2): transverse translation (x) and rotation (y) blocks, rows/cols
                                   (F_x/(6 pi a), T_y/(8 pi a^3)) of sphere 1 for the mode."""
@@ -540,9 +542,9 @@ def doublet_friction_axial(r, L, L2=None, a=A_BEAD):
 def doublet_exact_axial(r, a=A_BEAD, Lref=None, L2=None):
     """'Exact' rigid-doublet 6x6 friction about the midpoint (axis z).  Axial translation from the
     Stimson-Jeffery series (independent, exact); all other entries from the multipole method at high
-    order Lref (converged to < 1e-8 relative for r >= 2.5a; at contact see theory.md T8/T9)."""
+    order Lref = 30 (rigid-doublet modes converge to <~1e-8 even at contact, see theory.md T8)."""
     if Lref is None:
-        Lref = 30 if r > 2.2 * a else 60
+        Lref = 30
     Z = doublet_friction_axial(r, Lref, L2, a)
     Z[2, 2] = 2 * 6 * np.pi * a * stimson_jeffery(r, a)
     return Z
@@ -608,8 +610,8 @@ def convergence_table(path, distances=(2.5, 3.0, 4.0, 6.0), Ls=(1, 2, 3, 4, 6, 8
              '(rotation), sqrt of their product for the coupling Y^B.  Modes: sym = both spheres move',
              'the same way, anti = opposite.  Distances are centre-to-centre in units of a.',
              '',
-             'References ("exact" row): XA_sym = Stimson & Jeffery (1926) series; XA_anti = Brenner (1961)',
-             'series; XC_anti = Jeffery (1915) series; all others = this method at L = %d (converged, see' % Lref,
+             'References ("exact" row): XA_sym = Stimson & Jeffery (1926) series; XA_anti = Maude (1961) /',
+             'Brenner (1961) two-sphere series; XC_anti = Jeffery (1915) series; all others = this method at L = %d (converged, see' % Lref,
              'the "L=%d - L=%d" row for the size of the last change).' % (Lref, Lref - 6),
              '']
     keys = ['XA_sym', 'XA_anti', 'XC_sym', 'XC_anti', 'YA_sym', 'YA_anti', 'YB_sym', 'YB_anti', 'YC_sym',
@@ -620,7 +622,7 @@ def convergence_table(path, distances=(2.5, 3.0, 4.0, 6.0), Ls=(1, 2, 3, 4, 6, 8
         ref6 = two_sphere_modes(r, Lref - 6)
         exact = dict(ref)
         exact['XA_sym'] = stimson_jeffery(r)
-        exact['XA_anti'] = brenner_approach(r)
+        exact['XA_anti'] = maude_approach(r)
         exact['XC_anti'] = jeffery_counter_rotation(r)
         lines.append('## r = %.1f a' % rr)
         lines.append('')

@@ -1,7 +1,7 @@
 !> One beadmob run, from the input file to the result file. Every step that can fail on
 !> one rank ends in `agree_on_error`, so the ranks always stop together with one message.
 module beadmob_run
-  use mpi, only: MPI_Bcast, MPI_INTEGER
+  use, intrinsic :: iso_fortran_env, only: error_unit
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -12,6 +12,9 @@ module beadmob_run
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_result_file, only: write_result_file
+  use beadmob_friction_job, only: friction_of_model
+  use beadmob_rigid_body_solve, only: solve_statistics_t
+  use beadmob_mobility, only: mobility_result_t, compute_mobility
   implicit none
   private
   public :: run_beadmob, read_input_file, built_in_source
@@ -28,6 +31,9 @@ contains
     type(run_config_t) :: config
     type(bead_model_t) :: model
     type(body_frame_t) :: frame
+    type(mobility_result_t) :: mobility
+    type(solve_statistics_t) :: solves
+    real(dp) :: friction(6, 6)
     character(len=:), allocatable :: text, source
 
     text = ''
@@ -53,10 +59,32 @@ contains
     ! Without a paper value, L is the size along the body x axis (paper: x along L).
     if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
 
-    call write_result_file(ctx, config, model, frame, err)
+    ! Hydrodynamics only when asked for (&hydrodynamics group): a geometry job skips it.
+    if (config%hydrodynamics%enabled) then
+      call friction_of_model(ctx, model%centres, frame%centre_of_mass, friction, solves)
+      call compute_mobility(friction, frame%axes, model%reference_length, mobility, err)
+      if (err%failed) return   ! same replicated friction on every rank: same outcome
+      call write_result_file(ctx, config, model, frame, err, mobility, solves)
+    else
+      call write_result_file(ctx, config, model, frame, err)
+    end if
     if (err%failed) return
     if (ctx%rank == 0) call print_summary(config, model, frame)
+    if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(mobility, solves)
   end subroutine run_beadmob
+
+  subroutine print_mobility(mobility, solves)
+    type(mobility_result_t), intent(in) :: mobility
+    type(solve_statistics_t), intent(in) :: solves
+    write (*, '(a)') '  hydrodynamics: multipole order L = 1 (Rotne-Prager-Yamakawa), no lubrication'
+    write (*, '(a, 6i5)') '  Krylov iterations: ', solves%iterations
+    write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(solves%true_relative_residual)
+    write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
+    write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
+    if (any(solves%converged_reason <= 0)) write (error_unit, '(a, 6i4, a)') &
+      'beadmob: warning: not every Krylov solve converged (reasons ', solves%converged_reason, &
+      '); the result file flags it: /hydrodynamics all_converged = 0'
+  end subroutine print_mobility
 
   subroutine read_input_file(path, text, err)
     character(len=*), intent(in) :: path

@@ -16,7 +16,7 @@ module beadmob_hdf5_support
 
   interface write_attribute
     module procedure write_attribute_text, write_attribute_int, write_attribute_int8, write_attribute_real, &
-                     write_attribute_reals
+                     write_attribute_reals, write_attribute_ints
   end interface write_attribute
 
   interface write_replicated_dataset
@@ -177,6 +177,24 @@ contains
     call h5aclose_f(attribute, status)
     call h5sclose_f(space, status)
   end subroutine write_attribute_reals
+
+  subroutine write_attribute_ints(location, name, values, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: values(:)
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: space, attribute
+    integer :: status
+    integer(hsize_t) :: dims(1)
+    dims = size(values)
+    call h5screate_simple_f(1, dims, space, status)
+    call h5acreate_f(location, name, H5T_NATIVE_INTEGER, space, attribute, status)
+    call check(status, 'create attribute ' // name, err)
+    call h5awrite_f(attribute, H5T_NATIVE_INTEGER, values, dims, status)
+    call check(status, 'write attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+    call h5sclose_f(space, status)
+  end subroutine write_attribute_ints
 
   !> Scalar string dataset, written by rank 0 within a collective call.
   subroutine write_text_dataset(ctx, location, name, value, err)

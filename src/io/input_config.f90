@@ -8,13 +8,13 @@ module beadmob_input_config
   use beadmob_strings, only: str
   implicit none
   private
-  public :: run_config_t, shape_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
+  public :: run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
   public :: default_output_path
 
   real(dp), parameter :: unset_real = -huge(1.0_dp)
   integer, parameter :: unset_int = -huge(1)
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
-  character(len=*), parameter :: known_groups(2) = [character(len=8) :: 'run', 'shape']
+  character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
 
   !> The &shape group: a shape name and the parameters that shape takes (others stay unset).
   type :: shape_config_t
@@ -36,6 +36,14 @@ module beadmob_input_config
     integer :: box_beads(3) = unset_int
   end type shape_config_t
 
+  !> The &hydrodynamics group: present = compute the friction and mobility of the model.
+  type :: hydrodynamics_config_t
+    logical :: enabled = .false.
+    !> Multipole truncation order L (L = 1: force and torque per bead, the RPY level).
+    integer :: multipole_order = 1
+    logical :: lubrication = .false.
+  end type hydrodynamics_config_t
+
   type :: run_config_t
     !> Input file path, or 'built-in default' when run without one.
     character(len=:), allocatable :: source
@@ -45,6 +53,7 @@ module beadmob_input_config
     !> Beads overlap when their centres are closer than 1 - overlap_tolerance (relative to d).
     real(dp) :: overlap_tolerance = 1.0e-6_dp
     type(shape_config_t) :: shape
+    type(hydrodynamics_config_t) :: hydrodynamics
   end type run_config_t
 
   interface is_set
@@ -82,6 +91,8 @@ contains
     if (err%failed) return
     call read_shape_group(lines, source, config%shape, found, err)
     if (err%failed) return
+    call read_hydrodynamics_group(lines, source, config%hydrodynamics, err)
+    if (err%failed) return
     if (.not. found) call raise(err, source // ': no &shape group (say which bead model to build, e.g. &shape name=''cone'' /)')
     ! A relative bead file path is relative to the input file, wherever the run starts.
     if (len_trim(config%shape%file) > 0 .and. config%shape%file(1:1) /= '/' .and. index(source, '/') > 0) &
@@ -111,6 +122,35 @@ contains
     config%output = output
     config%overlap_tolerance = overlap_tolerance
   end subroutine read_run_group
+
+  subroutine read_hydrodynamics_group(lines, source, hydro, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(hydrodynamics_config_t), intent(inout) :: hydro
+    type(error_t), intent(inout) :: err
+    integer :: multipole_order, status
+    logical :: lubrication
+    character(len=512) :: message
+    namelist /hydrodynamics/ multipole_order, lubrication
+
+    hydro%enabled = has_group(lines, 'hydrodynamics')
+    if (.not. hydro%enabled) return
+    multipole_order = hydro%multipole_order
+    lubrication = hydro%lubrication
+    read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
+    if (status > 0) then
+      call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
+      return
+    end if
+    if (multipole_order < 1) then
+      call raise(err, source // ': &hydrodynamics multipole_order must be >= 1, got ' // str(multipole_order))
+    else if (multipole_order > 1 .or. lubrication) then
+      call raise(err, source // ': &hydrodynamics: only multipole_order = 1 without lubrication (the ' // &
+                 'Rotne-Prager-Yamakawa level) is implemented so far; got multipole_order = ' // &
+                 str(multipole_order) // ', lubrication = ' // str(lubrication))
+    end if
+    hydro%multipole_order = multipole_order
+    hydro%lubrication = lubrication
+  end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
     character(len=*), intent(in) :: lines(:), source
@@ -192,6 +232,10 @@ contains
                                            str(c%box_beads(2)) // ', ' // str(c%box_beads(3)) // new_line('a')
     end associate
     text = text // '/' // new_line('a')
+    if (config%hydrodynamics%enabled) text = text // '&hydrodynamics' // new_line('a') // &
+      '  multipole_order = ' // str(config%hydrodynamics%multipole_order) // new_line('a') // &
+      '  lubrication = ' // merge('.true. ', '.false.', config%hydrodynamics%lubrication) // new_line('a') // &
+      '/' // new_line('a')
   contains
     subroutine add_real(name, value)
       character(len=*), intent(in) :: name
@@ -213,7 +257,7 @@ contains
       if (len(group) == 0 .or. group == 'end') cycle
       if (.not. any(known_groups == group)) then
         call raise(err, source // ' line ' // str(i) // ': unknown namelist group &' // group // &
-                   ' (known groups: &run, &shape)')
+                   ' (known groups: &run, &shape, &hydrodynamics)')
         return
       end if
     end do

@@ -12,6 +12,8 @@ module beadmob_result_file
   use beadmob_input_config, only: run_config_t, effective_input_text
   use beadmob_bead_model, only: bead_model_t
   use beadmob_body_frame, only: body_frame_t
+  use beadmob_mobility, only: mobility_result_t
+  use beadmob_rigid_body_solve, only: solve_statistics_t, motion_names
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -37,12 +39,14 @@ module beadmob_result_file
 contains
 
   !> Collective. On failure the partial file is removed and `err` holds the same message on all ranks.
-  subroutine write_result_file(ctx, config, model, frame, err)
+  subroutine write_result_file(ctx, config, model, frame, err, mobility, solves)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(bead_model_t), intent(in) :: model
     type(body_frame_t), intent(in) :: frame
     type(error_t), intent(inout) :: err
+    type(mobility_result_t), intent(in), optional :: mobility
+    type(solve_statistics_t), intent(in), optional :: solves
     character(len=:), allocatable :: final_path, partial_path
     integer(hid_t) :: file_id
     integer :: ierr
@@ -55,6 +59,8 @@ contains
     call write_metadata(ctx, file_id, config, err)
     call write_shape(file_id, model, err)
     call write_geometry(ctx, file_id, model, frame, err)
+    if (present(mobility) .and. present(solves)) &
+      call write_hydrodynamics(ctx, file_id, config, mobility, solves, err)
     call h5_close_file(file_id, err)
     call agree_on_error(ctx, err)
     call MPI_Barrier(ctx%comm, ierr)
@@ -130,6 +136,46 @@ contains
     call write_replicated_dataset(ctx, group, 'mirror_planes', merge(1.0_dp, 0.0_dp, frame%mirror_plane), err)
     call h5_close_group(group, err)
   end subroutine write_geometry
+
+  subroutine write_hydrodynamics(ctx, file_id, config, mobility, solves, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(run_config_t), intent(in) :: config
+    type(mobility_result_t), intent(in) :: mobility
+    type(solve_statistics_t), intent(in) :: solves
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    integer :: k
+    character(len=:), allocatable :: names
+    call h5_create_group(file_id, 'hydrodynamics', group, err)
+    call write_attribute(group, 'multipole_order', config%hydrodynamics%multipole_order, err)
+    call write_attribute(group, 'lubrication', merge(1, 0, config%hydrodynamics%lubrication), err)
+    call write_attribute(group, 'method', 'Rotne-Prager-Yamakawa bead mobility (multipole order L = 1)', err)
+    call write_attribute(group, 'units', 'eta = 1, lengths in d; friction maps (U, Omega) to (F, T)', err)
+    call write_attribute(group, 'reference_point', 'centre of mass', err)
+    call write_attribute(group, 'symmetry_error', mobility%symmetry_error, err)
+    call write_attribute(group, 'off_pattern', mobility%off_pattern, err)
+    call write_attribute(group, 'z_reversed', merge(1, 0, mobility%z_reversed), err)
+    call write_attribute(group, 'coefficient_names', 'mu11 mu22 mu33 mu42 mu51', err)
+    call write_replicated_dataset(ctx, group, 'friction', mobility%friction, err)
+    call write_replicated_dataset(ctx, group, 'mobility', mobility%mobility, err)
+    call write_replicated_dataset(ctx, group, 'body_axes', mobility%body_axes, err)
+    call write_replicated_dataset(ctx, group, 'body_mobility', mobility%body_mobility, err)
+    call write_replicated_dataset(ctx, group, 'coefficients', mobility%coefficients, err)
+    names = motion_names(1)
+    do k = 2, 6
+      names = names // ' ' // motion_names(k)
+    end do
+    call write_attribute(group, 'solve_motions', names, err)
+    call write_attribute(group, 'solve_iterations', solves%iterations, err)
+    call write_attribute(group, 'solve_converged_reason', solves%converged_reason, err)
+    call write_attribute(group, 'solve_true_relative_residual', solves%true_relative_residual, err)
+    call write_attribute(group, 'ksp_type', trim(solves%ksp_type), err)
+    call write_attribute(group, 'pc_type', trim(solves%pc_type), err)
+    call write_attribute(group, 'ksp_relative_tolerance', solves%relative_tolerance, err)
+    call write_attribute(group, 'all_converged', merge(1, 0, all(solves%converged_reason > 0)), err)
+    call h5_close_group(group, err)
+  end subroutine write_hydrodynamics
 
   function timestamp() result(text)
     character(len=:), allocatable :: text

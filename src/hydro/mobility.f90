@@ -1,0 +1,91 @@
+!> From the 6x6 friction of a rigid body to its mobility and the paper's dimensionless
+!> coefficients (settlers paper, eq. "matrices"): pi eta L mu_tt = diag(mu11, mu22, mu33),
+!> pi eta L^2 mu_rt with mu42 (Omega_x from F_y) and mu51 (Omega_y from F_x), in the body frame,
+!> about the centre of mass, z oriented so that theta = 0 is the stable orientation
+!> (paper, eq. theta_51_exp: d theta/dt = mu51 sin theta, stable at 0 when mu51 < 0).
+!> Units: eta = 1, lengths in bead diameters d.
+module beadmob_mobility
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  implicit none
+  private
+  public :: mobility_result_t, compute_mobility
+
+  real(dp), parameter :: pi = acos(-1.0_dp)
+
+  type :: mobility_result_t
+    real(dp) :: friction(6, 6) = 0.0_dp          ! model coordinates, about the reference point
+    real(dp) :: mobility(6, 6) = 0.0_dp          ! inverse of friction
+    real(dp) :: symmetry_error = 0.0_dp          ! ||zeta - zeta^T||_F / ||zeta||_F
+    real(dp) :: body_axes(3, 3) = 0.0_dp         ! columns: body x, y, z (z possibly reversed)
+    real(dp) :: body_mobility(6, 6) = 0.0_dp     ! mobility in the body frame
+    real(dp) :: coefficients(5) = 0.0_dp         ! mu11, mu22, mu33, mu42, mu51
+    real(dp) :: off_pattern = 0.0_dp             ! largest entry outside the paper's pattern, relative
+    logical :: z_reversed = .false.              ! body y and z turned by pi about x for mu51 < 0
+  end type mobility_result_t
+
+  interface
+    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+      import :: dp
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
+      integer, intent(out) :: ipiv(*), info
+    end subroutine dgesv
+  end interface
+
+contains
+
+  subroutine compute_mobility(friction, axes, reference_length, result, err)
+    real(dp), intent(in) :: friction(6, 6), axes(3, 3), reference_length
+    type(mobility_result_t), intent(out) :: result
+    type(error_t), intent(inout) :: err
+    real(dp) :: work(6, 6), rotation(3, 3), tt(3, 3), rt(3, 3), pattern_max, other_max
+    integer :: pivots(6), info, k
+
+    result%friction = friction
+    result%symmetry_error = norm2(friction - transpose(friction)) / norm2(friction)
+    work = friction
+    result%mobility = 0.0_dp
+    do k = 1, 6
+      result%mobility(k, k) = 1.0_dp
+    end do
+    call dgesv(6, 6, work, 6, pivots, result%mobility, 6, info)
+    if (info /= 0) then
+      call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
+      return
+    end if
+
+    ! v_body = R v with R = axes^T; blocks transform as R M R^T.
+    rotation = transpose(axes)
+    result%body_mobility = in_frame(result%mobility, rotation)
+    if (result%body_mobility(5, 1) > 0.0_dp) then
+      ! Turning the frame by pi about x (y -> -y, z -> -z) reverses mu42 and mu51.
+      result%z_reversed = .true.
+      rotation(2:3, :) = -rotation(2:3, :)
+      result%body_mobility = in_frame(result%mobility, rotation)
+    end if
+    result%body_axes = transpose(rotation)
+
+    tt = pi * reference_length * result%body_mobility(1:3, 1:3)
+    rt = pi * reference_length**2 * result%body_mobility(4:6, 1:3)
+    result%coefficients = [tt(1, 1), tt(2, 2), tt(3, 3), rt(1, 2), rt(2, 1)]
+    pattern_max = maxval(abs(result%coefficients))
+    tt(1, 1) = 0.0_dp; tt(2, 2) = 0.0_dp; tt(3, 3) = 0.0_dp
+    rt(1, 2) = 0.0_dp; rt(2, 1) = 0.0_dp
+    other_max = max(maxval(abs(tt)), maxval(abs(rt)))
+    result%off_pattern = other_max / pattern_max
+  end subroutine compute_mobility
+
+  pure function in_frame(matrix, rotation) result(rotated)
+    real(dp), intent(in) :: matrix(6, 6), rotation(3, 3)
+    real(dp) :: rotated(6, 6)
+    integer :: row, column
+    do column = 0, 1
+      do row = 0, 1
+        rotated(3 * row + 1:3 * row + 3, 3 * column + 1:3 * column + 3) = &
+          matmul(rotation, matmul(matrix(3 * row + 1:3 * row + 3, 3 * column + 1:3 * column + 3), transpose(rotation)))
+      end do
+    end do
+  end function in_frame
+end module beadmob_mobility
