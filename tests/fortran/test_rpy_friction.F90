@@ -4,7 +4,10 @@
 !> a touching doublet translating along its axis, closed form from the RPY blocks by hand:
 !> each sphere moves with U = F [1/(6 pi eta a) + (1 - 2a^2/(3r^2))/(4 pi eta r)], r = 2a,
 !> so zeta_axial = 2 F / U = 96 pi eta a / 13; and for three beads in general position, a dense
-!> LAPACK solve of the same grand mobility (checks the distributed operator and Krylov solve).
+!> LAPACK solve of the same grand mobility (checks the distributed operator and Krylov solve),
+!> and, as an independent method, the Galerkin multipole prototype at order L = 1
+!> (docs/prototype/multipole_reference.py, friction_rigid(centres, 1): surface quadrature of
+!> the single-layer operator, no RPY formula used), whose 6x6 values are listed below.
 program test_rpy_friction
 #include "petsc/finclude/petscksp.h"
   use petscksp
@@ -46,6 +49,21 @@ program test_rpy_friction
                'three beads: distributed solve = dense LAPACK solve')
     call check(suite, maxval(abs(friction - transpose(friction))) < 1.0e-8_dp * maxval(abs(friction)), &
                'three beads: friction symmetric')
+    expected = reshape([ &
+      1.696904738971645e+01_dp, -1.353103076337475e-01_dp, 3.070157248508995e-01_dp, &
+      -1.040850832706352e-01_dp, 5.758435935589636e-01_dp, -1.048212998540418e+00_dp, &
+      -1.353103076337475e-01_dp, 1.687671605565818e+01_dp, -9.431063171485984e-01_dp, &
+      -3.582072414507014e-01_dp, 8.994052574754650e-02_dp, -2.966763024620849e-01_dp, &
+      3.070157248508995e-01_dp, -9.431063171485984e-01_dp, 1.817274881400806e+01_dp, &
+      5.655135865562126e-01_dp, 1.175626084579140e-01_dp, 1.414455752308919e-02_dp, &
+      -1.040850832706352e-01_dp, -3.582072414507022e-01_dp, 5.655135865562126e-01_dp, &
+      2.591062988502276e+01_dp, 1.216360887772689e-01_dp, 1.322146135732948e+00_dp, &
+      5.758435935589633e-01_dp, 8.994052574754649e-02_dp, 1.175626084579150e-01_dp, &
+      1.216360887772693e-01_dp, 2.056406632581279e+01_dp, -5.902812884559735e+00_dp, &
+      -1.048212998540416e+00_dp, -2.966763024620840e-01_dp, 1.414455752308922e-02_dp, &
+      1.322146135732948e+00_dp, -5.902812884559734e+00_dp, 2.840804588837071e+01_dp], [6, 6])
+    call check(suite, maxval(abs(friction - expected)) < 1.0e-8_dp * maxval(abs(expected)), &
+               'three beads: equal to the Galerkin multipole prototype at L = 1')
   end block
 
   call finish_tests(suite)
