@@ -3,7 +3,7 @@
 module beadmob_errors
   implicit none
   private
-  public :: error_t, raise, has_failed
+  public :: error_t, raise
 
   type :: error_t
     logical :: failed = .false.
@@ -20,9 +20,4 @@ contains
     err%failed = .true.
     err%message = message
   end subroutine raise
-
-  pure logical function has_failed(err)
-    type(error_t), intent(in) :: err
-    has_failed = err%failed
-  end function has_failed
 end module beadmob_errors

@@ -8,7 +8,7 @@ module beadmob_parallel
   use beadmob_errors, only: error_t
   implicit none
   private
-  public :: run_context_t, make_run_context, agree_on_error, broadcast_text, block_range, is_root
+  public :: run_context_t, make_run_context, agree_on_error, broadcast_text, block_range
 
   type :: run_context_t
     integer :: comm = MPI_COMM_WORLD
@@ -28,11 +28,6 @@ contains
     call MPI_Comm_rank(comm, ctx%rank, ierr)
     call MPI_Comm_size(comm, ctx%n_ranks, ierr)
   end function make_run_context
-
-  pure logical function is_root(ctx)
-    type(run_context_t), intent(in) :: ctx
-    is_root = ctx%rank == 0
-  end function is_root
 
   !> Collective: afterwards `err` is failed on every rank if it was failed on any rank,
   !> with the message of the lowest failing rank.

@@ -6,7 +6,7 @@ module beadmob_run
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
-  use beadmob_input_config, only: run_config_t, parse_input_text
+  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source
   use beadmob_bead_model, only: bead_model_t
   use beadmob_shape_catalog, only: build_bead_model
   use beadmob_geometry_checks, only: check_bead_model
@@ -17,9 +17,7 @@ module beadmob_run
   use beadmob_mobility, only: mobility_result_t, compute_mobility
   implicit none
   private
-  public :: run_beadmob, read_input_file, built_in_source
-
-  character(len=*), parameter :: built_in_source = 'built-in default'
+  public :: run_beadmob, read_input_file
 
 contains
 

@@ -11,7 +11,7 @@ module beadmob_paper_presets
     paper_crescent_reference_length, paper_ring_reference_length
   implicit none
   private
-  public :: paper_shape_t, paper_shape_preset, is_paper_preset
+  public :: paper_shape_t, paper_shape_preset
 
   type :: paper_shape_t
     real(dp) :: reference_length = 0.0_dp
@@ -22,12 +22,6 @@ module beadmob_paper_presets
   end type paper_shape_t
 
 contains
-
-  pure logical function is_paper_preset(name)
-    character(len=*), intent(in) :: name
-    is_paper_preset = any(name == [character(len=13) :: 'cone', 'arrowhead', 'crescent_moon', 'ring_1mm', &
-                                   'ring_2mm', 'ring_3mm', 'ring_4mm'])
-  end function is_paper_preset
 
   !> Parameters of a preset in units of the bead diameter; 'open_ring' has none (all required).
   pure function paper_shape_preset(name) result(preset)

@@ -14,16 +14,14 @@ module beadmob_paper_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance
   implicit none
   private
   public :: build_cone, build_arrowhead, build_open_ring, build_crescent_moon
   public :: gap_half_angle_from_arc, ellipse_gap_arc_length
-  public :: boundary_tolerance
 
   real(dp), parameter :: pi = acos(-1.0_dp)
 
-  !> Tolerance of the inside tests, relative to the shape's size (see each builder).
-  real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
 
   ! ---------------------------------------------------------------------------------------
   ! Paper parameters. Table tab_mob_num gives L/d; it equals the number of lattice columns
@@ -78,9 +76,8 @@ contains
     real(dp), intent(in) :: base_diameter, height
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: buffer(:, :)
-    real(dp) :: tol, r_max
-    integer :: n_r, n_z, i, j, k, count
+    real(dp) :: tol
+    integer :: n_r, n_z
 
     allocate (centres(3, 0))
     if (.not. positive_size(base_diameter, 'cone: base_diameter', err)) return
@@ -88,21 +85,14 @@ contains
     tol = boundary_tolerance * max(1.0_dp, base_diameter, height)
     n_r = floor(0.5_dp * base_diameter + tol)
     n_z = floor(height + tol)
-    allocate (buffer(3, (2 * n_r + 1)**2 * (n_z + 1)))
-    count = 0
-    do k = 0, n_z
-      r_max = (height - k) * base_diameter / (2.0_dp * height)  ! R(z), appendix "Cone"
-      do j = -n_r, n_r
-        do i = -n_r, n_r
-          if (sqrt(real(i * i + j * j, dp)) <= r_max + tol) then
-            count = count + 1
-            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
-          end if
-        end do
-      end do
-    end do
-    deallocate (centres)
-    centres = buffer(:, 1:count)
+    centres = lattice_nodes_inside([-n_r, -n_r, 0], [n_r, n_r, n_z], inside_cone)
+  contains
+    logical function inside_cone(node)
+      real(dp), intent(in) :: node(3)
+      real(dp) :: r_max
+      r_max = (height - node(3)) * base_diameter / (2.0_dp * height)  ! R(z), appendix "Cone"
+      inside_cone = sqrt(node(1)**2 + node(2)**2) <= r_max + tol
+    end function inside_cone
   end subroutine build_cone
 
   ! ---------------------------------------------------------------------------------------

@@ -12,13 +12,12 @@ module beadmob_simple_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance
   implicit none
   private
   public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
-  public :: build_spheroid, build_box, build_torus, boundary_tolerance
+  public :: build_spheroid, build_box, build_torus
 
-  !> Relative tolerance of the inside tests (kept points may exceed the bound by this fraction).
-  real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
 
 contains
 
@@ -87,9 +86,7 @@ contains
     real(dp), intent(in) :: semi_axes(3)
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: buffer(:, :)
-    integer :: n(3), i, j, k, count
-    real(dp) :: q
+    integer :: n(3), i
     do i = 1, 3
       if (.not. positive_size(semi_axes(i), 'spheroid: semi_axes(' // str(i) // ')', err)) then
         allocate (centres(3, 0))
@@ -97,20 +94,12 @@ contains
       end if
     end do
     n = floor(semi_axes * (1.0_dp + boundary_tolerance))
-    allocate (buffer(3, product(2 * n + 1)))
-    count = 0
-    do k = -n(3), n(3)
-      do j = -n(2), n(2)
-        do i = -n(1), n(1)
-          q = (i / semi_axes(1))**2 + (j / semi_axes(2))**2 + (k / semi_axes(3))**2
-          if (q <= 1.0_dp + boundary_tolerance) then
-            count = count + 1
-            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
-          end if
-        end do
-      end do
-    end do
-    centres = buffer(:, 1:count)
+    centres = lattice_nodes_inside(-n, n, inside_spheroid)
+  contains
+    logical function inside_spheroid(node)
+      real(dp), intent(in) :: node(3)
+      inside_spheroid = sum((node / semi_axes)**2) <= 1.0_dp + boundary_tolerance
+    end function inside_spheroid
   end subroutine build_spheroid
 
   !> A rectangular block of n_x * n_y * n_z beads at (i, j, k), 0 <= i < n_x, etc.
@@ -144,9 +133,7 @@ contains
     real(dp), intent(in) :: major_radius, minor_radius
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: buffer(:, :)
-    integer :: n_xy, n_z, i, j, k, count
-    real(dp) :: rho, q
+    integer :: n_xy, n_z
     if (.not. positive_size(major_radius, 'torus: major_radius', err)) then
       allocate (centres(3, 0))
       return
@@ -157,21 +144,13 @@ contains
     end if
     n_xy = floor((major_radius + minor_radius) * (1.0_dp + boundary_tolerance))
     n_z = floor(minor_radius * (1.0_dp + boundary_tolerance))
-    allocate (buffer(3, (2 * n_xy + 1)**2 * (2 * n_z + 1)))
-    count = 0
-    do k = -n_z, n_z
-      do j = -n_xy, n_xy
-        do i = -n_xy, n_xy
-          rho = sqrt(real(i, dp)**2 + real(j, dp)**2)
-          q = (rho - major_radius)**2 + real(k, dp)**2
-          if (q <= minor_radius**2 * (1.0_dp + boundary_tolerance)) then
-            count = count + 1
-            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
-          end if
-        end do
-      end do
-    end do
-    centres = buffer(:, 1:count)
+    centres = lattice_nodes_inside([-n_xy, -n_xy, -n_z], [n_xy, n_xy, n_z], inside_torus)
+  contains
+    logical function inside_torus(node)
+      real(dp), intent(in) :: node(3)
+      inside_torus = (sqrt(node(1)**2 + node(2)**2) - major_radius)**2 + node(3)**2 &
+                     <= minor_radius**2 * (1.0_dp + boundary_tolerance)
+    end function inside_torus
   end subroutine build_torus
 
 end module beadmob_simple_shapes

@@ -3,6 +3,7 @@
 !> call it with the same arguments (replicated data), except the distributed writes, where
 !> each rank passes its own block.
 module beadmob_hdf5_support
+  use, intrinsic :: iso_c_binding, only: c_ptr, c_loc
   use hdf5
   use mpi, only: MPI_INFO_NULL
   use beadmob_kinds, only: dp, i8
@@ -124,40 +125,20 @@ contains
     character(len=*), intent(in) :: name
     integer(i8), intent(in) :: value
     type(error_t), intent(inout) :: err
-    integer(hid_t) :: space, attribute
-    integer :: status
-    integer(i8), target :: buffer
+    integer(i8), target :: buffer(1)
     buffer = value
-    call h5screate_f(H5S_SCALAR_F, space, status)
-    call h5acreate_f(location, name, H5T_STD_I64LE, space, attribute, status)
-    call check(status, 'create attribute ' // name, err)
-    call h5awrite_f(attribute, h5kind_to_type(i8, H5_INTEGER_KIND), c_loc_of(buffer), status)
-    call check(status, 'write attribute ' // name, err)
-    call h5aclose_f(attribute, status)
-    call h5sclose_f(space, status)
+    call write_numeric_attribute(location, name, H5T_STD_I64LE, h5kind_to_type(i8, H5_INTEGER_KIND), .true., 1, &
+                                 c_loc(buffer), err)
   end subroutine write_attribute_int8
-
-  function c_loc_of(value) result(pointer)
-    use, intrinsic :: iso_c_binding, only: c_ptr, c_loc
-    integer(i8), target, intent(in) :: value
-    type(c_ptr) :: pointer
-    pointer = c_loc(value)
-  end function c_loc_of
 
   subroutine write_attribute_real(location, name, value, err)
     integer(hid_t), intent(in) :: location
     character(len=*), intent(in) :: name
     real(dp), intent(in) :: value
     type(error_t), intent(inout) :: err
-    integer(hid_t) :: space, attribute
-    integer :: status
-    call h5screate_f(H5S_SCALAR_F, space, status)
-    call h5acreate_f(location, name, H5T_NATIVE_DOUBLE, space, attribute, status)
-    call check(status, 'create attribute ' // name, err)
-    call h5awrite_f(attribute, H5T_NATIVE_DOUBLE, value, [1_hsize_t], status)
-    call check(status, 'write attribute ' // name, err)
-    call h5aclose_f(attribute, status)
-    call h5sclose_f(space, status)
+    real(dp), target :: buffer(1)
+    buffer = value
+    call write_numeric_attribute(location, name, H5T_NATIVE_DOUBLE, H5T_NATIVE_DOUBLE, .true., 1, c_loc(buffer), err)
   end subroutine write_attribute_real
 
   subroutine write_attribute_reals(location, name, values, err)
@@ -165,17 +146,10 @@ contains
     character(len=*), intent(in) :: name
     real(dp), intent(in) :: values(:)
     type(error_t), intent(inout) :: err
-    integer(hid_t) :: space, attribute
-    integer :: status
-    integer(hsize_t) :: dims(1)
-    dims = size(values)
-    call h5screate_simple_f(1, dims, space, status)
-    call h5acreate_f(location, name, H5T_NATIVE_DOUBLE, space, attribute, status)
-    call check(status, 'create attribute ' // name, err)
-    call h5awrite_f(attribute, H5T_NATIVE_DOUBLE, values, dims, status)
-    call check(status, 'write attribute ' // name, err)
-    call h5aclose_f(attribute, status)
-    call h5sclose_f(space, status)
+    real(dp), target :: buffer(size(values))
+    buffer = values
+    call write_numeric_attribute(location, name, H5T_NATIVE_DOUBLE, H5T_NATIVE_DOUBLE, .false., size(values), &
+                                 c_loc(buffer), err)
   end subroutine write_attribute_reals
 
   subroutine write_attribute_ints(location, name, values, err)
@@ -183,18 +157,34 @@ contains
     character(len=*), intent(in) :: name
     integer, intent(in) :: values(:)
     type(error_t), intent(inout) :: err
+    integer, target :: buffer(size(values))
+    buffer = values
+    call write_numeric_attribute(location, name, H5T_NATIVE_INTEGER, H5T_NATIVE_INTEGER, .false., size(values), &
+                                 c_loc(buffer), err)
+  end subroutine write_attribute_ints
+
+  !> The one numeric attribute writer: a scalar or a 1-D array of `n` values at `buffer`.
+  subroutine write_numeric_attribute(location, name, file_type, memory_type, scalar, n, buffer, err)
+    integer(hid_t), intent(in) :: location, file_type, memory_type
+    character(len=*), intent(in) :: name
+    logical, intent(in) :: scalar
+    integer, intent(in) :: n
+    type(c_ptr), intent(in) :: buffer
+    type(error_t), intent(inout) :: err
     integer(hid_t) :: space, attribute
     integer :: status
-    integer(hsize_t) :: dims(1)
-    dims = size(values)
-    call h5screate_simple_f(1, dims, space, status)
-    call h5acreate_f(location, name, H5T_NATIVE_INTEGER, space, attribute, status)
+    if (scalar) then
+      call h5screate_f(H5S_SCALAR_F, space, status)
+    else
+      call h5screate_simple_f(1, [int(n, hsize_t)], space, status)
+    end if
+    call h5acreate_f(location, name, file_type, space, attribute, status)
     call check(status, 'create attribute ' // name, err)
-    call h5awrite_f(attribute, H5T_NATIVE_INTEGER, values, dims, status)
+    call h5awrite_f(attribute, memory_type, buffer, status)
     call check(status, 'write attribute ' // name, err)
     call h5aclose_f(attribute, status)
     call h5sclose_f(space, status)
-  end subroutine write_attribute_ints
+  end subroutine write_numeric_attribute
 
   !> Scalar string dataset, written by rank 0 within a collective call.
   subroutine write_text_dataset(ctx, location, name, value, err)

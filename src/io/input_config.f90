@@ -9,11 +9,13 @@ module beadmob_input_config
   implicit none
   private
   public :: run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
-  public :: default_output_path
+  public :: default_output_path, built_in_source
 
   real(dp), parameter :: unset_real = -huge(1.0_dp)
   integer, parameter :: unset_int = -huge(1)
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
+  !> The `source` of a run without an input file.
+  character(len=*), parameter :: built_in_source = 'built-in default'
   character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
 
   !> The &shape group: a shape name and the parameters that shape takes (others stay unset).
@@ -83,7 +85,7 @@ contains
 
     config%source = source
     config%text = text
-    if (len_trim(text) == 0 .and. source == 'built-in default') return
+    if (len_trim(text) == 0 .and. source == built_in_source) return
     call split_lines(text, lines)
     call check_group_names(lines, source, err)
     if (err%failed) return
