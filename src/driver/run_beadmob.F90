@@ -12,8 +12,7 @@ module beadmob_run
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_result_file, only: write_result_file
-  use beadmob_friction_job, only: friction_of_model
-  use beadmob_rigid_body_solve, only: solve_statistics_t
+  use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names
   use beadmob_mobility, only: mobility_result_t, compute_mobility
   implicit none
   private
@@ -30,8 +29,8 @@ contains
     type(bead_model_t) :: model
     type(body_frame_t) :: frame
     type(mobility_result_t) :: mobility
-    type(solve_statistics_t) :: solves
-    real(dp) :: friction(6, 6)
+    type(friction_result_t) :: hydro
+    type(friction_settings_t) :: settings
     character(len=:), allocatable :: text, source
 
     text = ''
@@ -59,30 +58,50 @@ contains
 
     ! Hydrodynamics only when asked for (&hydrodynamics group): a geometry job skips it.
     if (config%hydrodynamics%enabled) then
-      call friction_of_model(ctx, model%centres, frame%centre_of_mass, friction, solves)
-      call compute_mobility(friction, frame%axes, model%reference_length, mobility, err)
+      settings%order = config%hydrodynamics%multipole_order
+      settings%potential_order = config%hydrodynamics%potential_order
+      settings%lubrication = config%hydrodynamics%lubrication
+      settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
+      call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
+      if (err%failed) return   ! agreed on inside
+      call compute_mobility(hydro%friction, frame%axes, model%reference_length, mobility, err)
       if (err%failed) return   ! same replicated friction on every rank: same outcome
-      call write_result_file(ctx, config, model, frame, err, mobility, solves)
+      call write_result_file(ctx, config, model, frame, err, mobility, hydro)
     else
       call write_result_file(ctx, config, model, frame, err)
     end if
     if (err%failed) return
     if (ctx%rank == 0) call print_summary(config, model, frame)
-    if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(mobility, solves)
+    if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(config, mobility, hydro)
   end subroutine run_beadmob
 
-  subroutine print_mobility(mobility, solves)
+  subroutine print_mobility(config, mobility, hydro)
+    type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
-    type(solve_statistics_t), intent(in) :: solves
-    write (*, '(a)') '  hydrodynamics: multipole order L = 1 (Rotne-Prager-Yamakawa), no lubrication'
-    write (*, '(a, 6i5)') '  Krylov iterations: ', solves%iterations
-    write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(solves%true_relative_residual)
+    type(friction_result_t), intent(in) :: hydro
+    integer :: phase
+    write (*, '(a)') '  hydrodynamics: multipole order L = ' // str(config%hydrodynamics%multipole_order) // &
+      ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
+      str(hydro%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
+      lubrication_summary(config%hydrodynamics%lubrication, hydro%lubrication_pairs)
+    write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
+    write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
-    if (any(solves%converged_reason <= 0)) write (error_unit, '(a, 6i4, a)') &
-      'beadmob: warning: not every Krylov solve converged (reasons ', solves%converged_reason, &
+    write (*, '(a, *(a, f0.2, :, ","))') '  wall time (s):', (' ' // trim(phase_names(phase)) // ' ', &
+      hydro%seconds(phase), phase = 1, size(phase_names))
+    if (any(hydro%solves%converged_reason <= 0)) write (error_unit, '(a, 6i4, a)') &
+      'beadmob: warning: not every Krylov solve converged (reasons ', hydro%solves%converged_reason, &
       '); the result file flags it: /hydrodynamics all_converged = 0'
   end subroutine print_mobility
+
+  pure function lubrication_summary(enabled, pairs) result(text)
+    logical, intent(in) :: enabled
+    integer, intent(in) :: pairs
+    character(len=:), allocatable :: text
+    text = 'off'
+    if (enabled) text = 'on (' // str(pairs) // ' pairs)'
+  end function lubrication_summary
 
   subroutine read_input_file(path, text, err)
     character(len=*), intent(in) :: path

@@ -41,9 +41,14 @@ module beadmob_input_config
   !> The &hydrodynamics group: present = compute the friction and mobility of the model.
   type :: hydrodynamics_config_t
     logical :: enabled = .false.
-    !> Multipole truncation order L (L = 1: force and torque per bead, the RPY level).
-    integer :: multipole_order = 1
-    logical :: lubrication = .false.
+    !> Multipole truncation order L (L = 1: force and torque per bead, the RPY level; the paper: 2).
+    integer :: multipole_order = 2
+    !> Highest degree of the sigma = 2 (potential) multipole family, L2; default max(L - 2, 0),
+    !> which gives the 2L(L+2) unknowns per bead of the paper's L = 2 (docs/theory.md T3).
+    integer :: potential_order = unset_int
+    logical :: lubrication = .true.
+    !> Pairs of beads with centre distance <= cutoff (units of d) get the lubrication correction.
+    real(dp) :: lubrication_cutoff = 2.0_dp
   end type hydrodynamics_config_t
 
   type :: run_config_t
@@ -129,29 +134,40 @@ contains
     character(len=*), intent(in) :: lines(:), source
     type(hydrodynamics_config_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
-    integer :: multipole_order, status
+    integer :: multipole_order, potential_order, status
     logical :: lubrication
+    real(dp) :: lubrication_cutoff
     character(len=512) :: message
-    namelist /hydrodynamics/ multipole_order, lubrication
+    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
     multipole_order = hydro%multipole_order
+    potential_order = hydro%potential_order
     lubrication = hydro%lubrication
+    lubrication_cutoff = hydro%lubrication_cutoff
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
       return
     end if
+    if (.not. is_set(potential_order)) potential_order = max(multipole_order - 2, 0)
     if (multipole_order < 1) then
       call raise(err, source // ': &hydrodynamics multipole_order must be >= 1, got ' // str(multipole_order))
-    else if (multipole_order > 1 .or. lubrication) then
-      call raise(err, source // ': &hydrodynamics: only multipole_order = 1 without lubrication (the ' // &
-                 'Rotne-Prager-Yamakawa level) is implemented so far; got multipole_order = ' // &
-                 str(multipole_order) // ', lubrication = ' // str(lubrication))
+    else if (multipole_order > 40) then
+      call raise(err, source // ': &hydrodynamics multipole_order must be <= 40 (the quadrature and the ' // &
+                 'harmonic recurrences are checked up to there), got ' // str(multipole_order))
+    else if (potential_order < 0 .or. potential_order > multipole_order) then
+      call raise(err, source // ': &hydrodynamics potential_order must be between 0 and multipole_order = ' // &
+                 str(multipole_order) // ', got ' // str(potential_order))
+    else if (.not. (lubrication_cutoff >= 1.0_dp .and. lubrication_cutoff <= 10.0_dp)) then
+      call raise(err, source // ': &hydrodynamics lubrication_cutoff must be between 1 and 10 (bead diameters), got ' &
+                 // str(lubrication_cutoff))
     end if
     hydro%multipole_order = multipole_order
+    hydro%potential_order = potential_order
     hydro%lubrication = lubrication
+    hydro%lubrication_cutoff = lubrication_cutoff
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -236,7 +252,9 @@ contains
     text = text // '/' // new_line('a')
     if (config%hydrodynamics%enabled) text = text // '&hydrodynamics' // new_line('a') // &
       '  multipole_order = ' // str(config%hydrodynamics%multipole_order) // new_line('a') // &
+      '  potential_order = ' // str(config%hydrodynamics%potential_order) // new_line('a') // &
       '  lubrication = ' // merge('.true. ', '.false.', config%hydrodynamics%lubrication) // new_line('a') // &
+      '  lubrication_cutoff = ' // str(config%hydrodynamics%lubrication_cutoff) // new_line('a') // &
       '/' // new_line('a')
   contains
     subroutine add_real(name, value)

@@ -7,13 +7,15 @@ module beadmob_result_file
   use mpi, only: MPI_Barrier
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_build_info, only: program_version, git_hash
   use beadmob_input_config, only: run_config_t, effective_input_text
   use beadmob_bead_model, only: bead_model_t
   use beadmob_body_frame, only: body_frame_t
   use beadmob_mobility, only: mobility_result_t
-  use beadmob_rigid_body_solve, only: solve_statistics_t, motion_names
+  use beadmob_rigid_body_solve, only: motion_names
+  use beadmob_friction_job, only: friction_result_t, phase_names
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -46,7 +48,7 @@ contains
     type(body_frame_t), intent(in) :: frame
     type(error_t), intent(inout) :: err
     type(mobility_result_t), intent(in), optional :: mobility
-    type(solve_statistics_t), intent(in), optional :: solves
+    type(friction_result_t), intent(in), optional :: solves
     character(len=:), allocatable :: final_path, partial_path
     integer(hid_t) :: file_id
     integer :: ierr
@@ -137,20 +139,25 @@ contains
     call h5_close_group(group, err)
   end subroutine write_geometry
 
-  subroutine write_hydrodynamics(ctx, file_id, config, mobility, solves, err)
+  subroutine write_hydrodynamics(ctx, file_id, config, mobility, hydro, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: file_id
     type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
-    type(solve_statistics_t), intent(in) :: solves
+    type(friction_result_t), intent(in) :: hydro
     type(error_t), intent(inout) :: err
     integer(hid_t) :: group
     integer :: k
     character(len=:), allocatable :: names
     call h5_create_group(file_id, 'hydrodynamics', group, err)
     call write_attribute(group, 'multipole_order', config%hydrodynamics%multipole_order, err)
+    call write_attribute(group, 'potential_order', config%hydrodynamics%potential_order, err)
+    call write_attribute(group, 'unknowns_per_bead', hydro%unknowns_per_bead, err)
     call write_attribute(group, 'lubrication', merge(1, 0, config%hydrodynamics%lubrication), err)
-    call write_attribute(group, 'method', 'Rotne-Prager-Yamakawa bead mobility (multipole order L = 1)', err)
+    names = 'multipole method (Cichocki et al. 1994), Galerkin form, order L = ' // &
+            str(config%hydrodynamics%multipole_order)
+    if (config%hydrodynamics%lubrication) names = names // ', with rigid-doublet lubrication correction'
+    call write_attribute(group, 'method', names, err)
     call write_attribute(group, 'units', 'eta = 1, lengths in d; friction maps (U, Omega) to (F, T)', err)
     call write_attribute(group, 'reference_point', 'centre of mass', err)
     call write_attribute(group, 'symmetry_error', mobility%symmetry_error, err)
@@ -158,6 +165,7 @@ contains
     call write_attribute(group, 'z_reversed', merge(1, 0, mobility%z_reversed), err)
     call write_attribute(group, 'coefficient_names', 'mu11 mu22 mu33 mu42 mu51', err)
     call write_replicated_dataset(ctx, group, 'friction', mobility%friction, err)
+    call write_replicated_dataset(ctx, group, 'multipole_friction', hydro%multipole_friction, err)
     call write_replicated_dataset(ctx, group, 'mobility', mobility%mobility, err)
     call write_replicated_dataset(ctx, group, 'body_axes', mobility%body_axes, err)
     call write_replicated_dataset(ctx, group, 'body_mobility', mobility%body_mobility, err)
@@ -167,13 +175,30 @@ contains
       names = names // ' ' // motion_names(k)
     end do
     call write_attribute(group, 'solve_motions', names, err)
-    call write_attribute(group, 'solve_iterations', solves%iterations, err)
-    call write_attribute(group, 'solve_converged_reason', solves%converged_reason, err)
-    call write_attribute(group, 'solve_true_relative_residual', solves%true_relative_residual, err)
-    call write_attribute(group, 'ksp_type', trim(solves%ksp_type), err)
-    call write_attribute(group, 'pc_type', trim(solves%pc_type), err)
-    call write_attribute(group, 'ksp_relative_tolerance', solves%relative_tolerance, err)
-    call write_attribute(group, 'all_converged', merge(1, 0, all(solves%converged_reason > 0)), err)
+    call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
+    call write_attribute(group, 'solve_converged_reason', hydro%solves%converged_reason, err)
+    call write_attribute(group, 'solve_true_relative_residual', hydro%solves%true_relative_residual, err)
+    call write_attribute(group, 'ksp_type', trim(hydro%solves%ksp_type), err)
+    call write_attribute(group, 'pc_type', trim(hydro%solves%pc_type), err)
+    call write_attribute(group, 'ksp_relative_tolerance', hydro%solves%relative_tolerance, err)
+    call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0)), err)
+    call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
+    call write_attribute(group, 'computed_blocks', int(hydro%computed_blocks), err)
+    names = trim(phase_names(1))
+    do k = 2, size(phase_names)
+      names = names // ' ' // trim(phase_names(k))
+    end do
+    call write_attribute(group, 'phase_names', names, err)
+    call write_attribute(group, 'phase_seconds', hydro%seconds, err)
+    if (config%hydrodynamics%lubrication) then
+      call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
+      call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)
+      call write_attribute(group, 'lubrication_reference_order', hydro%lubrication_reference_order, err)
+      if (size(hydro%lubrication_table%distances) > 0) then
+        call write_replicated_dataset(ctx, group, 'lubrication_distances', hydro%lubrication_table%distances, err)
+        call write_replicated_dataset(ctx, group, 'lubrication_corrections', hydro%lubrication_table%correction, err)
+      end if
+    end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
 

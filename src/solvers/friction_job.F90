@@ -1,33 +1,95 @@
-!> The friction of a bead model on all ranks: the distributed bead operator of the chosen
-!> hydrodynamic level and the six rigid-motion solves about the reference point.
+!> The friction of a bead model on all ranks: the multipole basis of order L, the distributed
+!> bead operator with its block table, the six rigid-motion solves about the reference point,
+!> and the lubrication correction (theory.md T3-T9).
 module beadmob_friction_job
 #include "petsc/finclude/petscmat.h"
   use petscmat
   use beadmob_kinds, only: dp, i8
-  use beadmob_parallel, only: run_context_t, block_range
-  use beadmob_rpy_blocks, only: rpy_self_block, rpy_pair_block, rpy_block_size
+  use beadmob_errors, only: error_t
+  use beadmob_parallel, only: run_context_t, block_range, agree_on_error
+  use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
+  use beadmob_pair_blocks, only: rigid_projection
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
+  use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
   implicit none
   private
-  public :: friction_of_model
+  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names
+
+  character(len=*), parameter :: phase_names(4) = [character(len=11) :: 'blocks', 'solve', 'lubrication', 'total']
+
+  type :: friction_settings_t
+    integer :: order = 2                ! L
+    integer :: potential_order = 0     ! L2
+    logical :: lubrication = .true.
+    real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
+  end type friction_settings_t
+
+  type :: friction_result_t
+    real(dp) :: friction(6, 6) = 0.0_dp           ! with lubrication when asked for
+    real(dp) :: multipole_friction(6, 6) = 0.0_dp ! order L alone
+    type(solve_statistics_t) :: solves
+    integer :: unknowns_per_bead = 0
+    logical :: on_lattice = .false.
+    integer(i8) :: computed_blocks = 0
+    integer :: lubrication_pairs = 0
+    integer :: lubrication_reference_order = 0
+    type(lubrication_table_t) :: lubrication_table
+    real(dp) :: seconds(size(phase_names)) = 0.0_dp   ! wall time per phase (max over ranks)
+  end type friction_result_t
 
 contains
 
-  !> Collective. Multipole order 1 without lubrication (the RPY level) is what exists so far;
-  !> the input layer rejects other settings before this is reached.
-  subroutine friction_of_model(ctx, centres, reference_point, friction, stats)
+  !> Collective.
+  subroutine friction_of_model(ctx, settings, centres, reference_point, result, err)
     type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
-    real(dp), intent(out) :: friction(6, 6)
-    type(solve_statistics_t), intent(out) :: stats
+    type(friction_result_t), intent(out) :: result
+    type(error_t), intent(inout) :: err
+    type(multipole_basis_t) :: basis
     type(bead_operator_t), target :: op
+    real(dp), allocatable :: projection(:, :)
+    real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix
     integer(i8) :: first, count
+    integer :: ierr, local_pairs
+
+    start = MPI_Wtime()
+    basis = make_multipole_basis(settings%order, settings%potential_order)
+    result%unknowns_per_bead = basis%size
+    allocate (projection(basis%size, 6))
+    call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
-    call create_bead_operator(ctx%comm, centres, first, count, rpy_block_size, rpy_self_block, rpy_pair_block, &
-                              op, matrix)
-    call rigid_body_friction(ctx%comm, matrix, centres, first, count, reference_point, friction, stats)
+    call create_bead_operator(ctx%comm, basis, centres, first, count, op, matrix, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    result%on_lattice = op%table%on_lattice
+    result%computed_blocks = op%table%computed_blocks
+    result%seconds(1) = MPI_Wtime() - start
+
+    call rigid_body_friction(ctx%comm, matrix, op%self_block, projection, centres, first, count, reference_point, &
+                             result%multipole_friction, result%solves)
     call destroy_bead_operator(op, matrix)
+    result%seconds(2) = MPI_Wtime() - start - result%seconds(1)
+
+    result%friction = result%multipole_friction
+    if (settings%lubrication) then
+      ! Every rank builds the same small table; the pair sum is split by rows.
+      call make_lubrication_table(settings%order, settings%potential_order, centres, &
+                                  settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), result%lubrication_table, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      local = 0.0_dp
+      call add_lubrication(result%lubrication_table, centres, reference_point, int(first), int(first + count - 1), &
+                           local, local_pairs)
+      call MPI_Allreduce(local, lubrication_sum, 36, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+      call MPI_Allreduce(local_pairs, result%lubrication_pairs, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
+      result%friction = result%friction + lubrication_sum
+      result%lubrication_reference_order = reference_order
+    end if
+    result%seconds(3) = MPI_Wtime() - start - sum(result%seconds(1:2))
+    result%seconds(4) = MPI_Wtime() - start
+    call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
   end subroutine friction_of_model
 end module beadmob_friction_job

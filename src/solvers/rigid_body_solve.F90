@@ -1,8 +1,11 @@
-!> Friction of a rigid bead model: six Krylov solves A f = c, one per unit rigid motion
-!> (translations along x, y, z, rotations about x, y, z through the reference point), with
-!> c the bead velocities of that motion; total force and torque of the solved bead forces
-!> give the columns of the 6x6 friction matrix (Cichocki et al., J. Chem. Phys. 100, 3780
-!> (1994), section II; here at the level of forces and torques per bead).
+!> Friction of a rigid bead model: six Krylov solves A q = c, one per unit rigid motion
+!> (translations along x, y, z; rotations about x, y, z through the reference point), with c the
+!> projections of the bead surface velocities on the multipole basis; the force and torque of
+!> the solved multipoles give the columns of the 6x6 friction matrix (theory.md T5;
+!> Cichocki et al., J. Chem. Phys. 100, 3780 (1994), section II).
+!> Default Krylov method: CG, since A is the Galerkin matrix of the Stokes single-layer operator in
+!> an orthonormal basis, symmetric positive definite (theory.md T6); default preconditioner: the
+!> inverse of the single-bead block on every bead (a PCSHELL, SPD as CG needs).
 module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp
@@ -23,17 +26,43 @@ module beadmob_rigid_body_solve
     real(dp) :: relative_tolerance = 0.0_dp
   end type solve_statistics_t
 
+  !> PCSHELL context: the inverse single-bead block, applied bead by bead.
+  type :: bead_block_preconditioner_t
+    integer :: block_size = 0
+    real(dp), allocatable :: inverse_block(:, :)
+  end type bead_block_preconditioner_t
+
+  interface
+    subroutine PCShellSetContext(pc, context, ierr)
+      use petscksp
+      import :: bead_block_preconditioner_t
+      PC :: pc
+      type(bead_block_preconditioner_t) :: context
+      PetscErrorCode :: ierr
+    end subroutine PCShellSetContext
+    subroutine PCShellGetContext(pc, context, ierr)
+      use petscksp
+      import :: bead_block_preconditioner_t
+      PC :: pc
+      type(bead_block_preconditioner_t), pointer :: context
+      PetscErrorCode :: ierr
+    end subroutine PCShellGetContext
+  end interface
+
 contains
 
-  !> Collective. `centres` holds all beads; this rank owns beads first..first+n_local-1,
-  !> with 6 unknowns each (force, torque).
-  subroutine rigid_body_friction(comm, matrix, centres, first_bead, n_local, reference_point, friction, stats)
+  !> Collective. `centres` holds all beads; this rank owns beads first..first+n_local-1, with
+  !> nb = size(projection, 1) unknowns each. projection(:, m): the basis projection of unit motion
+  !> m of one bead about its centre (its transpose gives force and torque from the multipoles).
+  subroutine rigid_body_friction(comm, matrix, self_block, projection, centres, first_bead, n_local, &
+                                 reference_point, friction, stats)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix
-    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    real(dp), intent(in) :: self_block(:, :), projection(:, :), centres(:, :), reference_point(3)
     integer(i8), intent(in) :: first_bead, n_local
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
+    type(bead_block_preconditioner_t), target :: preconditioner
     KSP :: ksp
     PC :: pc
     Vec :: rhs, solution, residual
@@ -44,17 +73,22 @@ contains
     KSPConvergedReason :: reason
     KSPType :: ksp_type
     PCType :: pc_type
-    real(dp) :: local_sums(6), arm(3), force(3), torque(3)
+    real(dp) :: local_sums(6), arm(3), force_torque(6)
     integer(i8) :: i, bead
-    integer :: motion
+    integer :: motion, nb
+
+    nb = size(projection, 1)
+    preconditioner%block_size = nb
+    preconditioner%inverse_block = inverse_spd(self_block)
 
     PetscCallA(KSPCreate(comm, ksp, ierr))
     PetscCallA(KSPSetOperators(ksp, matrix, matrix, ierr))
-    ! Defaults: CG (the RPY mobility operator is symmetric positive definite) with the
-    ! single-bead blocks (diagonal here) as preconditioner; all changeable by -ksp_*/-pc_*.
     PetscCallA(KSPSetType(ksp, KSPCG, ierr))
     PetscCallA(KSPGetPC(ksp, pc, ierr))
-    PetscCallA(PCSetType(pc, PCJACOBI, ierr))
+    PetscCallA(PCSetType(pc, PCSHELL, ierr))
+    PetscCallA(PCShellSetContext(pc, preconditioner, ierr))
+    PetscCallA(PCShellSetApply(pc, apply_bead_block_preconditioner, ierr))
+    PetscCallA(PCShellSetName(pc, 'single-bead blocks', ierr))
     PetscCallA(KSPSetTolerances(ksp, 1.0e-10_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
     PetscCallA(MatCreateVecs(matrix, solution, rhs, ierr))
@@ -62,19 +96,19 @@ contains
 
     friction = 0.0_dp
     do motion = 1, 6
-      ! Bead velocities of the unit rigid motion: U_i = V + w x (r_i - r_0), Omega_i = w.
+      ! c_i = projection (U_i, Omega_i), U_i = V + w x (R_i - R_0), Omega_i = w.
       PetscCallA(VecGetArrayF90(rhs, values, ierr))
       do i = 1, n_local
         bead = first_bead + i - 1
         arm = centres(:, bead) - reference_point
-        values(6 * (i - 1) + 1:6 * i) = rigid_velocity(motion, arm)
+        values(nb * (i - 1) + 1:nb * i) = matmul(projection, rigid_velocity(motion, arm))
       end do
       PetscCallA(VecRestoreArrayF90(rhs, values, ierr))
       PetscCallA(VecZeroEntries(solution, ierr))
       PetscCallA(KSPSolve(ksp, rhs, solution, ierr))
       PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
       PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
-      ! True residual ||c - A f|| / ||c||, independent of the preconditioned norm KSP monitors.
+      ! True residual ||c - A q|| / ||c||, independent of the preconditioned norm KSP monitors.
       PetscCallA(MatMult(matrix, solution, residual, ierr))
       PetscCallA(VecAYPX(residual, -1.0_dp, rhs, ierr))
       PetscCallA(VecNorm(residual, NORM_2, residual_norm, ierr))
@@ -83,16 +117,15 @@ contains
       stats%converged_reason(motion) = int(reason)
       stats%true_relative_residual(motion) = residual_norm / rhs_norm
 
-      ! Column `motion`: total force and torque about the reference point.
+      ! Column `motion`: total force and torque (about the reference point) on the fluid.
       local_sums = 0.0_dp
       PetscCallA(VecGetArrayReadF90(solution, values, ierr))
       do i = 1, n_local
         bead = first_bead + i - 1
         arm = centres(:, bead) - reference_point
-        force = values(6 * (i - 1) + 1:6 * (i - 1) + 3)
-        torque = values(6 * (i - 1) + 4:6 * i)
-        local_sums(1:3) = local_sums(1:3) + force
-        local_sums(4:6) = local_sums(4:6) + torque + cross(arm, force)
+        force_torque = matmul(values(nb * (i - 1) + 1:nb * i), projection)
+        local_sums(1:3) = local_sums(1:3) + force_torque(1:3)
+        local_sums(4:6) = local_sums(4:6) + force_torque(4:6) + cross(arm, force_torque(1:3))
       end do
       PetscCallA(VecRestoreArrayReadF90(solution, values, ierr))
       call MPI_Allreduce(local_sums, friction(:, motion), 6, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
@@ -103,12 +136,48 @@ contains
     PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
     stats%ksp_type = ksp_type
     stats%pc_type = pc_type
+    if (pc_type == PCSHELL) stats%pc_type = 'single-bead blocks'
     stats%relative_tolerance = rtol
     PetscCallA(VecDestroy(rhs, ierr))
     PetscCallA(VecDestroy(solution, ierr))
     PetscCallA(VecDestroy(residual, ierr))
     PetscCallA(KSPDestroy(ksp, ierr))
   end subroutine rigid_body_friction
+
+  !> PCSHELL apply: y_i = S^-1 x_i on every local bead.
+  subroutine apply_bead_block_preconditioner(pc, x, y, ierr)
+    PC :: pc
+    Vec :: x, y
+    PetscErrorCode :: ierr
+    type(bead_block_preconditioner_t), pointer :: context
+    PetscScalar, pointer :: in(:), out(:)
+    integer :: nb, i
+    PetscCall(PCShellGetContext(pc, context, ierr))
+    nb = context%block_size
+    PetscCall(VecGetArrayReadF90(x, in, ierr))
+    PetscCall(VecGetArrayF90(y, out, ierr))
+    do i = 1, size(in) / nb
+      out(nb * (i - 1) + 1:nb * i) = matmul(context%inverse_block, in(nb * (i - 1) + 1:nb * i))
+    end do
+    PetscCall(VecRestoreArrayF90(y, out, ierr))
+    PetscCall(VecRestoreArrayReadF90(x, in, ierr))
+    ierr = 0
+  end subroutine apply_bead_block_preconditioner
+
+  !> Inverse of a small symmetric positive definite matrix (LAPACK Cholesky).
+  function inverse_spd(matrix) result(inverse)
+    real(dp), intent(in) :: matrix(:, :)
+    real(dp) :: inverse(size(matrix, 1), size(matrix, 1))
+    integer :: n, info, i
+    n = size(matrix, 1)
+    inverse = matrix
+    call dpotrf('L', n, inverse, n, info)
+    if (info == 0) call dpotri('L', n, inverse, n, info)
+    if (info /= 0) error stop 'beadmob: the single-bead block is not positive definite'
+    do i = 1, n
+      inverse(i, i + 1:n) = inverse(i + 1:n, i)
+    end do
+  end function inverse_spd
 
   pure function rigid_velocity(motion, arm) result(velocity)
     integer, intent(in) :: motion

@@ -1,11 +1,12 @@
-!> Rotne-Prager-Yamakawa bead mobility: the multipole method truncated at order L = 1 without
-!> lubrication (force and torque per bead). Units: viscosity eta = 1, bead radius a = 1/2.
+!> Test reference: the Rotne-Prager-Yamakawa grand mobility in closed form, which the multipole
+!> method at order L = 1 without lubrication must reproduce (docs/theory.md T7): force and torque
+!> per bead. Units: viscosity eta = 1, bead radius a = 1/2.
 !> Per bead the unknowns are (F, T) and the velocities (U, Omega); a block maps the force and
 !> torque of bead j to the velocity and angular velocity of bead i.
 !> Formulas: Rotne & Prager, J. Chem. Phys. 50, 4831 (1969); Yamakawa, J. Chem. Phys. 53, 436
 !> (1970); rotational blocks as in Wajnryb et al., J. Fluid Mech. 731, R3 (2013), eq. (2.4)-(2.7)
 !> for non-overlapping spheres.
-module beadmob_rpy_blocks
+module beadmob_rpy_reference
   use beadmob_kinds, only: dp
   implicit none
   private
@@ -53,4 +54,4 @@ contains
     ! Rotation from torque: the rotlet dipole.
     block(4:6, 4:6) = -(identity - 3.0_dp * outer) / (16.0_dp * pi * distance**3)
   end subroutine rpy_pair_block
-end module beadmob_rpy_blocks
+end module beadmob_rpy_reference
