@@ -1,4 +1,4 @@
-"""The ``beadmob-post`` command: inspect and picture beadmob result files.
+"""The ``beadmob-post`` command: inspect, analyse and picture beadmob result files.
 
 Every failure (unreadable file, wrong format, unwritable output) ends with one line
 ``beadmob-post: error: ...`` on stderr and exit status 2, like argparse usage errors.
@@ -17,16 +17,13 @@ import numpy as np
 
 from beadmob_post import __version__
 from beadmob_post.results import BeadResult, ResultFileError, load_result
+from beadmob_post.commands import CommandError, add_analysis_commands
 
 PROGRAM_NAME = "beadmob-post"
 #: Exit status of every error, as for argparse usage errors.
 ERROR_EXIT_STATUS = 2
 #: Set this environment variable to get Python tracebacks of unexpected errors.
 DEBUG_VARIABLE = "BEADMOB_POST_DEBUG"
-
-
-class CommandError(Exception):
-    """A failure to report as ``beadmob-post: error: <message>``."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -64,6 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--title", help="figure title (default: shape, parameters and N)")
     plot.add_argument("--dpi", type=int, default=None, help="resolution of PNG output")
     plot.set_defaults(handler=run_plot_beads)
+    add_analysis_commands(commands)
     return parser
 
 

@@ -31,6 +31,44 @@ class ResultFileError(Exception):
 
 
 @dataclass(frozen=True)
+class Hydrodynamics:
+    """``/hydrodynamics`` of a result file: the 6x6 friction and mobility (eta = 1, lengths in d).
+
+    Rows and columns are ordered (x, y, z) of translation then rotation, in the input (model)
+    coordinates, about the reference point named by ``attributes["reference_point"]`` (the
+    centre of mass). Only ``friction`` is required; every other item is optional, and
+    attributes unknown to this reader are kept in ``attributes`` untouched.
+    """
+
+    #: Maps (U, Omega) to (F, T).
+    friction: np.ndarray
+    #: Maps (F, T) to (U, Omega); None when the file holds only the friction.
+    mobility: np.ndarray | None
+    #: beadmob's own body frame for the mobility (rows = axes), coefficients, body mobility.
+    body_axes: np.ndarray | None
+    body_mobility: np.ndarray | None
+    coefficients: np.ndarray | None
+    #: All attributes of ``/hydrodynamics``, decoded (strings as str, arrays as numpy arrays).
+    attributes: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def multipole_order(self) -> int | None:
+        value = self.attributes.get("multipole_order")
+        return int(value) if _is_real_number(value) else None
+
+    @property
+    def lubrication(self) -> bool | None:
+        value = self.attributes.get("lubrication")
+        return bool(value) if _is_real_number(value) else None
+
+    @property
+    def all_converged(self) -> bool | None:
+        """False when beadmob flagged a non-converged solve, None when not recorded."""
+        value = self.attributes.get("all_converged")
+        return bool(value) if _is_real_number(value) else None
+
+
+@dataclass(frozen=True)
 class BeadResult:
     """The contents of one beadmob result file that the postprocessor uses.
 
@@ -59,6 +97,10 @@ class BeadResult:
     input_source: str | None = None
     #: Attributes of ``/units``, e.g. ``{"length": "d (bead diameter; ...)", "bead_diameter": 1.0}``.
     units: dict[str, Any] = field(default_factory=dict)
+    #: 1 where the plane normal to body axis k is a mirror plane (``/geometry/mirror_planes``).
+    mirror_planes: np.ndarray | None = None
+    #: ``/hydrodynamics`` when the run computed it, else None.
+    hydrodynamics: Hydrodynamics | None = None
 
     def body_coordinates(self) -> np.ndarray:
         """Bead centres in the body frame: origin at the centre of mass, axes ``body_axes``.
@@ -151,6 +193,15 @@ def _read_open_file(path: Path, handle: h5py.File) -> BeadResult:
         if name not in _SHAPE_DESCRIPTION_ATTRIBUTES and _is_real_number(value)
     }
 
+    mirror_planes = None
+    if "mirror_planes" in geometry:
+        mirror_planes = _read_only(
+            _read_float_array(path, geometry, "mirror_planes", expected_shape=(3,))
+        )
+    hydrodynamics = None
+    if "hydrodynamics" in handle:
+        hydrodynamics = _read_hydrodynamics(path, _require_group(path, handle, "hydrodynamics"))
+
     input_source = None
     if "input" in handle and "source" in handle["input"].attrs:
         input_source = decode_value(handle["input"].attrs["source"])
@@ -173,6 +224,26 @@ def _read_open_file(path: Path, handle: h5py.File) -> BeadResult:
             shape_attributes.get("source"), str) else None,
         input_source=input_source if isinstance(input_source, str) else None,
         units=units,
+        mirror_planes=mirror_planes,
+        hydrodynamics=hydrodynamics,
+    )
+
+
+def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
+    """Read ``/hydrodynamics``: friction (required), the rest when present."""
+    def optional(name: str, shape: tuple[int, ...]) -> np.ndarray | None:
+        if name not in group:
+            return None
+        return _read_only(_read_float_array(path, group, name, expected_shape=shape))
+
+    friction = _read_only(_read_float_array(path, group, "friction", expected_shape=(6, 6)))
+    return Hydrodynamics(
+        friction=friction,
+        mobility=optional("mobility", (6, 6)),
+        body_axes=optional("body_axes", (3, 3)),
+        body_mobility=optional("body_mobility", (6, 6)),
+        coefficients=optional("coefficients", (5,)),
+        attributes={name: decode_value(value) for name, value in group.attrs.items()},
     )
 
 

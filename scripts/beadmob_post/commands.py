@@ -1,0 +1,517 @@
+"""The analysis subcommands of ``beadmob-post`` (coefficients, classify, dynamics, fit,
+table, compare, plot-coefficients, plot-bench, report).
+
+Each handler takes the parsed arguments and the output stream and returns the exit status;
+failures raise :class:`CommandError` (or ResultFileError / ValueError subclasses), which
+``cli.main`` prints as one ``beadmob-post: error: ...`` line. scipy and matplotlib are imported
+inside the handlers that need them, so ``info`` stays quick.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from beadmob_post.classify import (
+    DEFAULT_ZERO_TOLERANCE,
+    STANDARD_GRAVITY,
+    bead_model_volume_m3,
+    classify,
+    physical_scales,
+    physical_times,
+)
+from beadmob_post.mobility import Coefficients, compute_coefficients
+from beadmob_post.paper import COEFFICIENT_NAMES, paper_row
+from beadmob_post.results import load_result
+
+
+class CommandError(Exception):
+    """A failure to report as ``beadmob-post: error: <message>``."""
+
+
+# ----------------------------------------------------------------------------- parser
+def add_analysis_commands(commands) -> None:
+    """Add the analysis subcommands to the ``add_subparsers`` object ``commands``."""
+    p = commands.add_parser(
+        "coefficients", help="the paper's mu11 mu22 mu33 mu42 mu51 and the off-pattern entries",
+        description="Compute the dimensionless coefficients of eq. (matrices) of the settlers "
+        "paper from the 6x6 mobility of a result file: body frame of the paper (mirror-plane "
+        "normals, x along the larger in-plane size, z so that theta = 0 is stable), centre of "
+        "mass as reference point, L from the file or --reference-length. Lists the entries the "
+        "paper's form assumes to be zero.")
+    _file_argument(p)
+    _hydro_options(p)
+    p.add_argument("--all", action="store_true", help="list every off-pattern entry, not the largest 5")
+    p.add_argument("--json", action="store_true", help="print as JSON")
+    p.set_defaults(handler=run_coefficients)
+
+    p = commands.add_parser(
+        "classify", help="settler / drifter / flutterer, reorientation times, terminal velocity",
+        description="Classify the body from the signs of mu42 and mu51 (settler when "
+        "mu42 mu51 < 0), give the time coefficients tau51 = 1/mu51 and tau42 = 1/mu42 in the "
+        "dimensionless time of eq. (eq:time) and U_f = mu33 (unit F/(pi eta L)); with the "
+        "physical options, the same in seconds and m/s (eq. eq:mobility, eq:mju33).")
+    _file_argument(p)
+    _hydro_options(p)
+    p.add_argument("--zero-tolerance", type=float, default=DEFAULT_ZERO_TOLERANCE,
+                   help="mu42, mu51 count as zero below this times max(mu11, mu22, mu33) "
+                   f"(default {DEFAULT_ZERO_TOLERANCE:g})")
+    _physical_options(p)
+    p.add_argument("--json", action="store_true", help="print as JSON")
+    p.set_defaults(handler=run_classify)
+
+    p = commands.add_parser(
+        "dynamics", help="integrate the 3-D orientation under gravity; plot theta(t), phi(t)",
+        description="Integrate the rigid-body orientation (quaternion, scipy solve_ivp) and the "
+        "centre-of-mass path of the settling body with its computed mobility, from any initial "
+        "orientation R = Rz(phi) Ry(theta) Rz(psi). With --plane the start is a tilt about body "
+        "y = lab Y or x = X and the paper's closed form tan(theta/2) = A exp(mu t) is drawn and "
+        "checked.")
+    _file_argument(p)
+    _hydro_options(p)
+    p.add_argument("--theta", type=float, default=170.0, help="initial theta (deg; default 170)")
+    p.add_argument("--phi", type=float, default=None, help="initial phi (deg; default 0)")
+    p.add_argument("--psi", type=float, default=None, help="initial psi (deg; default 0)")
+    p.add_argument("--plane", choices=("x", "y"),
+                   help="planar start: rotation about y = Y (mu51) or x = X (mu42)")
+    p.add_argument("--t-end", type=float, help="end of the dimensionless time (default: 12 "
+                   "e-folds of the slower planar rotation)")
+    p.add_argument("--samples", type=int, default=400, help="output samples (default 400)")
+    p.add_argument("--pattern-only", action="store_true",
+                   help="use only the five coefficients (paper's form), not the full mobility")
+    p.add_argument("-o", "--output", type=Path, help="figure (.png/.pdf; default <FILE stem>_dynamics.png)")
+    p.add_argument("--csv", type=Path, help="also write the samples as CSV")
+    _physical_options(p)
+    p.set_defaults(handler=run_dynamics)
+
+    p = commands.add_parser(
+        "fit", help="weighted fit of tan(theta/2) = A exp(-t/tau) to measured theta(t) (App. D)",
+        description="Fit eq. (eq:exp_exp) to theta(t) series (CSV: columns t, theta_deg or "
+        "theta_rad, optional sigma_tan / sigma_theta_deg / sigma_theta_rad / n_pixels,a,b) with "
+        "weights 1/sigma^2 and the weighted R^2 of Appendix D; prints the table in the form of "
+        "Table tab:fitting_param.")
+    p.add_argument("files", type=Path, nargs="+", metavar="CSV", help="theta(t) series")
+    _table_options(p)
+    p.add_argument("--confidence", type=float, default=0.95,
+                   help="level of the confidence half-widths in --json/CSV (default 0.95)")
+    p.add_argument("--plot-dir", type=Path, help="write <series>_fit.png there")
+    p.add_argument("--json", action="store_true", help="print the fits as JSON")
+    p.add_argument("--axis", choices=("x", "y"),
+                   help="rotation axis of the trials: y gives mu51 = -pi eta L^2/(F tau), x gives "
+                   "mu42 = pi eta L^2/(F tau) (needs the physical options)")
+    _physical_options(p, with_volume=False)
+    p.set_defaults(handler=run_fit)
+
+    for name, helptext, handler in (
+        ("table", "one table of many result files (CSV, Markdown, LaTeX)", run_table),
+        ("compare", "result files beside the paper's Table tab_mob_num, relative differences", run_compare),
+    ):
+        p = commands.add_parser(name, help=helptext, description=helptext + ". Files without "
+                                "/hydrodynamics contribute their geometry (N, L/d) only.")
+        p.add_argument("files", type=Path, nargs="+", metavar="FILE", help="beadmob result files")
+        _table_options(p)
+        p.add_argument("--allow-unconverged", action="store_true",
+                       help="accept files whose solves beadmob flagged as not converged")
+        if name == "compare":
+            p.add_argument("--plot", type=Path, help="also draw the coefficient bars (.png/.pdf)")
+        p.set_defaults(handler=handler)
+
+    p = commands.add_parser("plot-coefficients", help="bars of the coefficients beside the paper's",
+                            description="Bars of mu11 ... mu51 of each file beside Table tab_mob_num.")
+    p.add_argument("files", type=Path, nargs="+", metavar="FILE", help="beadmob result files")
+    p.add_argument("-o", "--output", type=Path, required=True, help="figure (.png or .pdf)")
+    p.add_argument("--allow-unconverged", action="store_true", help=argparse.SUPPRESS)
+    p.set_defaults(handler=run_plot_coefficients)
+
+    p = commands.add_parser(
+        "plot-bench", help="benchmark/convergence plots from a bench/ CSV",
+        description="Plots from a benchmark CSV (format 'beadmob-bench 1', see "
+        "docs/postprocessing.md): time-vs-n (log-log, fitted exponent), time-vs-error, "
+        "convergence (coefficients against --x).")
+    p.add_argument("file", type=Path, metavar="CSV", help="benchmark table")
+    p.add_argument("--kind", choices=("time-vs-n", "time-vs-error", "convergence"), default="time-vs-n")
+    p.add_argument("--x", default="n_beads", choices=("n_beads", "multipole_order"),
+                   help="abscissa of the convergence plot")
+    p.add_argument("-o", "--output", type=Path, help="figure (.png/.pdf; default <CSV stem>_<kind>.png)")
+    p.set_defaults(handler=run_plot_bench)
+
+    p = commands.add_parser(
+        "report", help="all tables and figures of a set of result files in one directory",
+        description="Write into DIR: coefficients.{csv,md,tex} (table), comparison.{csv,md,tex} "
+        "(beside the paper's Table tab_mob_num), coefficients_vs_paper.{png,pdf} (when any file "
+        "has /hydrodynamics) and <stem>_beads.png for every file.")
+    p.add_argument("files", type=Path, nargs="+", metavar="FILE", help="beadmob result files")
+    p.add_argument("-o", "--output-dir", type=Path, required=True, metavar="DIR")
+    p.add_argument("--no-beads", action="store_true", help="skip the bead pictures")
+    p.add_argument("--allow-unconverged", action="store_true", help=argparse.SUPPRESS)
+    p.set_defaults(handler=run_report)
+
+
+def _file_argument(parser) -> None:
+    parser.add_argument("file", type=Path, metavar="FILE", help="beadmob result file with /hydrodynamics")
+
+
+def _hydro_options(parser) -> None:
+    parser.add_argument("--reference-length", type=float, metavar="L",
+                        help="reference length L in bead diameters (default: the file's)")
+    parser.add_argument("--allow-unconverged", action="store_true",
+                        help="use a file whose solves beadmob flagged as not converged")
+
+
+def _table_options(parser) -> None:
+    parser.add_argument("-o", "--output", type=Path, help="write the table here (format from .csv/.md/.tex)")
+    parser.add_argument("--format", choices=("csv", "md", "tex"),
+                        help="table format on stdout (default md; with -o: from its suffix)")
+
+
+def _physical_options(parser, with_volume: bool = True) -> None:
+    group = parser.add_argument_group(
+        "physical units (SI)",
+        "give --length-m, a viscosity and one of force / buoyant mass / density difference "
+        "to get seconds and m/s")
+    group.add_argument("--length-m", type=float, help="the reference length L in metres")
+    group.add_argument("--viscosity", type=float, help="dynamic viscosity eta (Pa s)")
+    group.add_argument("--kinematic-viscosity", type=float, help="nu (m^2/s), with --fluid-density")
+    group.add_argument("--fluid-density", type=float, help="fluid density (kg/m^3); also gives Re")
+    group.add_argument("--force", type=float, help="F = gravity minus buoyancy (N)")
+    group.add_argument("--buoyant-mass", type=float, help="buoyant mass (kg): F = m_b g")
+    group.add_argument("--density-difference", type=float,
+                       help="particle minus fluid density (kg/m^3): F = |delta rho| V g")
+    if with_volume:
+        group.add_argument("--volume", type=float,
+                           help="particle volume (m^3; default: N spheres of d = L/(L/d))")
+    group.add_argument("--gravity", type=float, default=STANDARD_GRAVITY, help="g (m/s^2)")
+
+
+def _scales(arguments, coefficients: Coefficients | None):
+    """PhysicalScales from the options, or None when no physical option was given."""
+    names = ("length_m", "viscosity", "kinematic_viscosity", "fluid_density", "force",
+             "buoyant_mass", "density_difference", "volume")
+    if all(getattr(arguments, name, None) is None for name in names):
+        return None
+    if arguments.length_m is None:
+        raise CommandError("physical units need --length-m (the reference length L in metres)")
+    volume = getattr(arguments, "volume", None)
+    if arguments.density_difference is not None and volume is None:
+        if coefficients is None:
+            raise CommandError("--density-difference needs the particle volume")
+        volume = bead_model_volume_m3(coefficients.n_beads, coefficients.reference_length,
+                                      arguments.length_m)
+    try:
+        return physical_scales(
+            arguments.length_m, viscosity_Pa_s=arguments.viscosity,
+            kinematic_viscosity_m2_s=arguments.kinematic_viscosity,
+            fluid_density_kg_m3=arguments.fluid_density, force_N=arguments.force,
+            buoyant_mass_kg=arguments.buoyant_mass,
+            density_difference_kg_m3=arguments.density_difference, volume_m3=volume,
+            gravity_m_s2=arguments.gravity)
+    except ValueError as exc:
+        raise CommandError(f"physical units: {exc}") from exc
+
+
+def _coefficients(arguments) -> Coefficients:
+    if arguments.reference_length is not None and not arguments.reference_length > 0:
+        raise CommandError(f"--reference-length must be positive, got {arguments.reference_length}")
+    return compute_coefficients(load_result(arguments.file), arguments.reference_length,
+                                allow_unconverged=arguments.allow_unconverged)
+
+
+def _write_json(out: TextIO, data: Any) -> None:
+    out.write(json.dumps(data, indent=2, default=_json_default) + "\n")
+
+
+def _json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(type(value).__name__)
+
+
+def _g(value: float) -> str:
+    return "inf" if math.isinf(value) else f"{value:.6g}"
+
+
+# ----------------------------------------------------------------------------- coefficients
+def coefficients_summary(c: Coefficients) -> dict[str, Any]:
+    return {
+        "file": c.path, "shape": c.shape, "n_beads": c.n_beads,
+        "reference_length": c.reference_length,
+        "coefficients": c.as_dict(),
+        "ratio_51_42": c.ratio_51_42, "sum_over_51": c.sum_over_51,
+        "body_axes": c.body_axes, "z_reversed": c.z_reversed, "xy_swapped": c.xy_swapped,
+        "off_pattern": c.off_pattern,
+        "off_pattern_entries": [
+            {"block": e.block, "row": e.row, "column": e.column, "value": e.value,
+             "relative": e.relative} for e in c.off_pattern_entries],
+        "mirror_planes": c.mirror_planes, "paper_class": c.paper_class,
+        "multipole_order": c.multipole_order, "lubrication": c.lubrication,
+        "all_converged": c.all_converged,
+        "dimensionless_body_mobility": c.dimensionless_body_mobility,
+    }
+
+
+def run_coefficients(arguments, out: TextIO) -> int:
+    c = _coefficients(arguments)
+    if arguments.json:
+        _write_json(out, coefficients_summary(c))
+        return 0
+    lines = [f"file:             {c.path}",
+             f"shape:            {c.shape}, N = {c.n_beads}, L = {c.reference_length:g} d",
+             "method:           multipole order "
+             f"{c.multipole_order if c.multipole_order is not None else '?'}, lubrication "
+             f"{'?' if c.lubrication is None else ('yes' if c.lubrication else 'no')}"]
+    if c.all_converged is False:
+        lines.append("WARNING:          beadmob flagged the solves as not converged")
+    for name, value in c.as_dict().items():
+        paper = paper_row(c.shape)
+        ref = f"   (paper: {getattr(paper, name):.3f})" if paper is not None else ""
+        lines.append(f"{name}:             {value: .6f}{ref}")
+    lines.append(f"|mu51/mu42|:      {_g(c.ratio_51_42)}")
+    lines.append(f"(mu51+mu42)/|mu51|: {_g(c.sum_over_51)}")
+    for name, axis in zip("xyz", c.body_axes):
+        lines.append(f"body axis {name}:      ({', '.join(f'{v:.6g}' for v in axis)})")
+    notes = []
+    if c.xy_swapped:
+        notes.append("x and y of /geometry/body_axes exchanged (x along the larger size)")
+    if c.z_reversed:
+        notes.append("z turned by pi about x (theta = 0 stable)")
+    if notes:
+        lines.append("frame:            " + "; ".join(notes))
+    if c.paper_class is False:
+        lines.append(f"WARNING:          mirror planes {c.mirror_planes} are not the paper's "
+                     "(x and y only): the paper's form does not apply exactly")
+    lines.append(f"off-pattern:      {c.off_pattern:.3g} (largest tt/rt entry outside eq. "
+                 "matrices, relative to the largest coefficient)")
+    entries = sorted(c.off_pattern_entries, key=lambda e: -abs(e.value))
+    shown = entries if arguments.all else entries[:5]
+    for e in shown:
+        lines.append(f"  {e.block}[{e.row},{e.column}] = {e.value: .3e}  (relative {e.relative:.2e})")
+    out.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ----------------------------------------------------------------------------- classify
+def run_classify(arguments, out: TextIO) -> int:
+    c = _coefficients(arguments)
+    result = classify(c, zero_tolerance=arguments.zero_tolerance)
+    scales = _scales(arguments, c)
+    times = physical_times(c, scales) if scales is not None else None
+    data = {
+        "file": c.path, "shape": c.shape, "family": result.family, "reason": result.reason,
+        "coefficients": c.as_dict(),
+        "theta0_stable_rotation_about_y": result.stable_about_y,
+        "theta0_stable_rotation_about_x": result.stable_about_x,
+        "tau51": result.tau51, "tau42": result.tau42, "terminal_velocity": c.mu33,
+        "sum_over_51": result.sum_over_51, "remarks": list(result.remarks),
+    }
+    if scales is not None:
+        data.update({
+            "length_m": scales.length_m, "force_N": scales.force_N,
+            "viscosity_Pa_s": scales.viscosity_Pa_s, "time_unit_s": scales.time_unit_s,
+            "tau51_s": times.tau51_s, "tau42_s": times.tau42_s,
+            "terminal_velocity_m_s": times.terminal_velocity_m_s, "reynolds": times.reynolds,
+        })
+    if arguments.json:
+        _write_json(out, data)
+        return 0
+    lines = [f"file:        {c.path} ({c.shape}, N = {c.n_beads}, L = {c.reference_length:g} d)",
+             f"family:      {result.family}",
+             f"why:         {result.reason}",
+             f"mu42, mu51:  {c.mu42:.6g}, {c.mu51:.6g}",
+             f"theta = 0:   {'stable' if result.stable_about_y else 'not stable'} for rotation "
+             f"about y (d theta/dt = mu51 sin theta), "
+             f"{'stable' if result.stable_about_x else 'not stable'} about x "
+             "(d theta/dt = -mu42 sin theta)"]
+    lines += [f"note:        {remark}" for remark in result.remarks]
+    lines += ["times in the dimensionless time t = F t~/(pi eta L^2) (eq. eq:time):",
+              f"  tau51 = 1/mu51 = {_g(result.tau51)}",
+              f"  tau42 = 1/mu42 = {_g(result.tau42)}",
+              f"  U_f = mu33 = {c.mu33:.6g} (unit F/(pi eta L), eq. eq:mju33)"]
+    if scales is not None:
+        lines += [f"physical: L = {scales.length_m:g} m, F = {scales.force_N:.6g} N, "
+                  f"eta = {scales.viscosity_Pa_s:g} Pa s (time unit pi eta L^2/F = "
+                  f"{scales.time_unit_s:.6g} s)",
+                  f"  tau~51 = {_g(times.tau51_s)} s   (-1/tau~51 = {_g(-1 / times.tau51_s)} 1/s)",
+                  f"  tau~42 = {_g(times.tau42_s)} s   (1/tau~42 = {_g(1 / times.tau42_s)} 1/s)",
+                  f"  U_f = {times.terminal_velocity_m_s * 1e3:.6g} mm/s"]
+        if times.reynolds is not None:
+            lines.append(f"  Re = rho U_f L / eta = {times.reynolds:.3g}")
+    out.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ----------------------------------------------------------------------------- dynamics
+def run_dynamics(arguments, out: TextIO) -> int:
+    from beadmob_post import dynamics
+    from beadmob_post.mobility import pattern_mobility
+    from beadmob_post.plots import dynamics_figure, save
+
+    c = _coefficients(arguments)
+    if arguments.samples < 2:
+        raise CommandError(f"--samples must be at least 2, got {arguments.samples}")
+    mobility = pattern_mobility(*c.values()) if arguments.pattern_only else c.dimensionless_body_mobility
+    if arguments.plane is not None:
+        if arguments.phi is not None or arguments.psi is not None:
+            raise CommandError("--plane fixes phi and psi; give only --theta with it")
+        start = dynamics.planar_orientation(arguments.theta, arguments.plane)
+    else:
+        start = dynamics.orientation(arguments.theta, arguments.phi or 0.0, arguments.psi or 0.0)
+    t_end = arguments.t_end or dynamics.default_end_time(c.mu42, c.mu51, max(c.mu11, c.mu22, c.mu33))
+    trajectory = dynamics.integrate(mobility, start, t_end, n_samples=arguments.samples)
+    closed = None
+    lines = [f"integrated {c.shape} (N = {c.n_beads}) to t = {t_end:.6g} "
+             f"({'five coefficients' if arguments.pattern_only else 'full body mobility'})",
+             f"theta: {np.degrees(trajectory.theta[0]):.3f} -> {np.degrees(trajectory.theta[-1]):.6g} deg; "
+             f"phi: {np.degrees(trajectory.phi[0]):.3f} -> {np.degrees(trajectory.phi[-1]):.6g} deg; "
+             f"psi: {np.degrees(trajectory.psi[0]):.3f} -> {np.degrees(trajectory.psi[-1]):.6g} deg"]
+    if arguments.plane is not None:
+        rate = c.mu51 if arguments.plane == "y" else -c.mu42
+        closed = dynamics.planar_closed_form(np.radians(arguments.theta), rate, trajectory.t)
+        deviation = float(np.abs(trajectory.theta - closed).max())
+        lines.append(f"closed form tan(theta/2) = A exp({'mu51' if arguments.plane == 'y' else '-mu42'} t): "
+                     f"largest difference {np.degrees(deviation):.2e} deg")
+    scales = _scales(arguments, c)
+    unit = scales.time_unit_s if scales is not None else None
+    output = arguments.output or arguments.file.with_name(f"{arguments.file.stem}_dynamics.png")
+    title = (f"{c.shape}: start theta = {arguments.theta:g} deg"
+             + (f", rotation about {arguments.plane}" if arguments.plane else ""))
+    save(dynamics_figure(trajectory, title, closed, unit), output)
+    lines.append(f"wrote {output}")
+    if arguments.csv is not None:
+        dynamics.write_csv(trajectory, arguments.csv, unit)
+        lines.append(f"wrote {arguments.csv}")
+    out.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ----------------------------------------------------------------------------- fit
+def run_fit(arguments, out: TextIO) -> int:
+    from beadmob_post import fitting
+    from beadmob_post.tables import format_fit_table
+
+    if not 0 < arguments.confidence < 1:
+        raise CommandError(f"--confidence must lie in (0, 1), got {arguments.confidence}")
+    fits, series_list = [], []
+    for path in arguments.files:
+        series = fitting.read_series(path)
+        series_list.append(series)
+        fits.append(fitting.fit_series(series, confidence=arguments.confidence))
+    scales = _scales(arguments, None)
+    if arguments.json:
+        data = [vars(f) | {"tau": f.tau} for f in fits]
+        if scales is not None:
+            for item, f in zip(data, fits):
+                item["mu"] = _mu_from_rate(f.rate, scales, arguments.axis)
+        _write_json(out, data)
+    else:
+        text = _emit_table(arguments, lambda fmt: format_fit_table(fits, fmt))
+        out.write(text)
+        if scales is not None:
+            name = {"y": "mu51", "x": "mu42"}.get(arguments.axis, "|mu|")
+            for f in fits:
+                out.write(f"{Path(f.path).stem}: {name} = {_mu_from_rate(f.rate, scales, arguments.axis):.4g}"
+                          f" (1/tau = {f.rate:.4g} 1/s, pi eta L^2/F = {scales.time_unit_s:.4g} s)\n")
+    if arguments.plot_dir is not None:
+        from beadmob_post.plots import fit_figure, save
+        for series, f in zip(series_list, fits):
+            written = save(fit_figure(series, f), arguments.plot_dir / f"{Path(series.path).stem}_fit.png")
+            out.write(f"wrote {written}\n")
+    return 0
+
+
+def _mu_from_rate(rate: float, scales, axis: str | None) -> float:
+    """eq. eq:mobility: mu = (pi eta L^2/F)/tau~; mu51 < 0 for a settler (rate = -mu51 ...)."""
+    magnitude = rate * scales.time_unit_s
+    return -magnitude if axis == "y" else magnitude
+
+
+# ----------------------------------------------------------------------------- tables
+def _emit_table(arguments, render) -> str:
+    """Render with the chosen format; write to -o (returning a 'wrote' line) or return text."""
+    from beadmob_post.tables import format_for_path
+
+    if arguments.output is not None:
+        fmt = arguments.format or format_for_path(arguments.output)
+        arguments.output.write_text(render(fmt), encoding="utf-8")
+        return f"wrote {arguments.output}\n"
+    return render(arguments.format or "md")
+
+
+def run_table(arguments, out: TextIO) -> int:
+    from beadmob_post.tables import collect, format_table
+
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    out.write(_emit_table(arguments, lambda fmt: format_table(rows, fmt)))
+    return 0
+
+
+def run_compare(arguments, out: TextIO) -> int:
+    from beadmob_post.tables import collect, comparison, format_comparison
+
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    if not comparison(rows):
+        raise CommandError("none of the files is one of the paper's seven shapes (cone, "
+                           "crescent_moon, arrowhead, ring_1mm ... ring_4mm): nothing to compare")
+    out.write(_emit_table(arguments, lambda fmt: format_comparison(rows, fmt)))
+    if arguments.plot is not None:
+        from beadmob_post.plots import coefficient_bars, save
+        out.write(f"wrote {save(coefficient_bars(rows), arguments.plot)}\n")
+    return 0
+
+
+def run_plot_coefficients(arguments, out: TextIO) -> int:
+    from beadmob_post.plots import coefficient_bars, save
+    from beadmob_post.tables import collect
+
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    out.write(f"wrote {save(coefficient_bars(rows), arguments.output)}\n")
+    return 0
+
+
+def run_plot_bench(arguments, out: TextIO) -> int:
+    from beadmob_post.bench import read_bench
+    from beadmob_post.plots import bench_figure, save
+
+    runs = read_bench(arguments.file)
+    output = arguments.output or arguments.file.with_name(f"{arguments.file.stem}_{arguments.kind}.png")
+    out.write(f"wrote {save(bench_figure(runs, arguments.kind, arguments.x), output)}\n")
+    return 0
+
+
+def run_report(arguments, out: TextIO) -> int:
+    from beadmob_post.beadplot import plot_beads
+    from beadmob_post.plots import coefficient_bars, write_both
+    from beadmob_post.tables import collect, comparison, format_comparison, format_table
+
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    directory = arguments.output_dir
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for fmt in ("csv", "md", "tex"):
+        path = directory / f"coefficients.{fmt}"
+        path.write_text(format_table(rows, fmt), encoding="utf-8")
+        written.append(path)
+    if comparison(rows):
+        for fmt in ("csv", "md", "tex"):
+            path = directory / f"comparison.{fmt}"
+            path.write_text(format_comparison(rows, fmt), encoding="utf-8")
+            written.append(path)
+    if any(row.coefficients is not None for row in rows):
+        written += write_both(coefficient_bars(rows), directory / "coefficients_vs_paper")
+    else:
+        out.write("note: no file has /hydrodynamics; no coefficient figure\n")
+    if not arguments.no_beads:
+        for path in arguments.files:
+            written.append(plot_beads(load_result(path), directory / f"{path.stem}_beads.png"))
+    for path in written:
+        out.write(f"wrote {path}\n")
+    return 0
+
+
+__all__ = ["CommandError", "add_analysis_commands", "COEFFICIENT_NAMES"]
