@@ -46,11 +46,17 @@ def write_result_file(
     file_format: str | None = "beadmob-result",
     format_version: int = 1,
     omit: tuple[str, ...] = (),
+    hydrodynamics: dict | None = None,
+    reference_length: float = 3.0,
+    mirror_planes: tuple[float, float, float] | None = None,
 ) -> Path:
     """Write a synthetic beadmob result file at ``path`` and return ``path``.
 
     ``omit`` lists HDF5 paths (e.g. ``"geometry/positions"``) left out of the file, to test
     the reader's errors; ``file_format=None`` leaves out the root attribute ``format``.
+    ``hydrodynamics`` writes a /hydrodynamics group: key ``friction`` (6x6, required),
+    ``mobility`` (default: the inverse of the friction; None leaves it out), every other key
+    becomes an attribute (e.g. ``all_converged=0``).
     """
     positions = np.asarray(positions, dtype=float)
     axes = np.eye(3) if body_axes is None else np.asarray(body_axes, dtype=float)
@@ -78,7 +84,7 @@ def write_result_file(
         shape = handle.create_group("shape")
         shape.attrs["name"] = _text(shape_name)
         shape.attrs["source"] = _text("built-in shape")
-        shape.attrs["reference_length"] = 3.0
+        shape.attrs["reference_length"] = float(reference_length)
         for name, value in parameters.items():
             shape.attrs[name] = float(value)
 
@@ -88,9 +94,35 @@ def write_result_file(
         geometry["centre_of_mass"] = centre
         geometry["body_axes"] = axes
         geometry["extent"] = extent
+        if mirror_planes is not None:
+            geometry["mirror_planes"] = np.asarray(mirror_planes, dtype=float)
+        if hydrodynamics is not None:
+            write_hydrodynamics(handle, dict(hydrodynamics))
         for item in omit:
             del handle[item]
     return path
+
+
+def write_hydrodynamics(handle: h5py.File, items: dict) -> None:
+    """/hydrodynamics as beadmob writes it (see write_result_file)."""
+    group = handle.create_group("hydrodynamics")
+    friction = np.asarray(items.pop("friction"), dtype=float)
+    group["friction"] = friction
+    mobility = items.pop("mobility", "inverse")
+    if isinstance(mobility, str):
+        mobility = np.linalg.inv(friction)
+    if mobility is not None:
+        group["mobility"] = np.asarray(mobility, dtype=float)
+    attributes = {"multipole_order": 1, "lubrication": 0, "all_converged": 1,
+                  "method": "synthetic", "reference_point": "centre of mass"}
+    attributes.update(items)
+    for name, value in attributes.items():
+        group.attrs[name] = _text(value) if isinstance(value, str) else value
+
+
+def friction_of_mobility(mobility: np.ndarray) -> np.ndarray:
+    """The friction whose inverse is ``mobility`` (for building synthetic files)."""
+    return np.linalg.inv(mobility)
 
 
 def png_size(path) -> tuple[int, int]:
@@ -131,6 +163,15 @@ def beadmob_output_dir() -> Path:
     if not directory.is_dir():
         pytest.fail(f"BEADMOB_TEST_OUTPUT_DIR={value} is not a directory")
     return directory
+
+
+@pytest.fixture
+def real_hydro_file(beadmob_output_dir: Path) -> Path:
+    """rpy_pyramid.h5 of the test suite: a small cone with /hydrodynamics at order 1."""
+    path = beadmob_output_dir / "rpy_pyramid.h5"
+    if not path.exists():
+        pytest.fail(f"{path} missing: the CTest run rpy_pyramid writes it")
+    return path
 
 
 @pytest.fixture
