@@ -26,7 +26,7 @@ from beadmob_post.classify import (
     physical_times,
 )
 from beadmob_post.mobility import Coefficients, compute_coefficients
-from beadmob_post.paper import COEFFICIENT_NAMES, paper_row
+from beadmob_post.paper import COEFFICIENT_NAMES, paper_counterpart
 from beadmob_post.results import load_result
 
 
@@ -269,7 +269,7 @@ def run_coefficients(arguments, out: TextIO) -> int:
     if c.all_converged is False:
         lines.append("WARNING:          beadmob flagged the solves as not converged")
     for name, value in c.as_dict().items():
-        paper = paper_row(c.shape)
+        paper = paper_counterpart(c.shape, c.reference_length)
         ref = f"   (paper: {getattr(paper, name):.3f})" if paper is not None else ""
         lines.append(f"{name}:             {value: .6f}{ref}")
     lines.append(f"|mu51/mu42|:      {_g(c.ratio_51_42)}")
@@ -456,8 +456,9 @@ def run_compare(arguments, out: TextIO) -> int:
 
     rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
     if not comparison(rows):
-        raise CommandError("none of the files is one of the paper's seven shapes (cone, "
-                           "crescent_moon, arrowhead, ring_1mm ... ring_4mm): nothing to compare")
+        raise CommandError("none of the files is one of the paper's seven bead models (cone, "
+                           "crescent_moon, arrowhead, ring_1mm ... ring_4mm with the paper's "
+                           "L/d): nothing to compare")
     out.write(_emit_table(arguments, lambda fmt: format_comparison(rows, fmt)))
     if arguments.plot is not None:
         from beadmob_post.plots import coefficient_bars, save

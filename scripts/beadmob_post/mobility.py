@@ -179,6 +179,10 @@ def checked_mobility(result: BeadResult, allow_unconverged: bool = False) -> np.
                 f"{path}: /hydrodynamics/mobility is not the inverse of the friction "
                 f"(|M Z - I| = {mismatch:.3g})"
             )
+    # Reciprocity makes the mobility symmetric; its antisymmetric part is solver error
+    # (beadmob's symmetry_error). Symmetrising also makes the result independent of whether
+    # a writer stored the matrix or its transpose (Fortran vs C order).
+    mobility = 0.5 * (mobility + mobility.T)
     return _about_centre_of_mass(result, mobility)
 
 

@@ -67,6 +67,18 @@ def paper_row(shape: str) -> PaperBeadModel | None:
     return None
 
 
+def paper_counterpart(shape: str, reference_length: float | None) -> PaperBeadModel | None:
+    """The row a result compares with: same shape name and the paper's L/d.
+
+    A paper shape with changed parameters (e.g. a small test cone) has another L/d and is
+    not the paper's model, so it gets no counterpart.
+    """
+    row = paper_row(shape)
+    if row is None or reference_length is None or abs(reference_length - row.length_over_d) > 1e-6:
+        return None
+    return row
+
+
 @dataclass(frozen=True)
 class PaperExperiment:
     """Measured averages of Table `tab:mobility_velocity` with the object's data.

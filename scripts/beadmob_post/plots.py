@@ -6,14 +6,12 @@ Object-oriented matplotlib only (``Figure``, no pyplot), as in :mod:`beadmob_pos
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
-
 import numpy as np
 from matplotlib.figure import Figure
 
 from beadmob_post import bench as bench_module
 from beadmob_post.beadplot import SUPPORTED_SUFFIXES
-from beadmob_post.paper import COEFFICIENT_NAMES, paper_row
+from beadmob_post.paper import COEFFICIENT_NAMES
 
 DEFAULT_DPI = 120
 _GREEK = {"mu11": r"$\mu_{11}$", "mu22": r"$\mu_{22}$", "mu33": r"$\mu_{33}$",
@@ -42,7 +40,7 @@ def coefficient_bars(rows) -> Figure:
     width = 0.38
     for axes, name in zip(axes_row, COEFFICIENT_NAMES):
         ours = [row.values[name] for row in rows]
-        paper = [getattr(paper_row(row.shape), name) if paper_row(row.shape) else np.nan for row in rows]
+        paper = [getattr(row.paper, name) if row.paper is not None else np.nan for row in rows]
         axes.bar(positions - width / 2, ours, width, label="beadmob", color="tab:blue")
         axes.bar(positions + width / 2, paper, width, label="paper (tab_mob_num)", color="tab:orange")
         axes.axhline(0.0, color="black", linewidth=0.6)

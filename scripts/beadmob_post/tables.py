@@ -17,7 +17,14 @@ from typing import Sequence
 
 from beadmob_post.classify import classify
 from beadmob_post.mobility import Coefficients, compute_coefficients
-from beadmob_post.paper import CITATION, COEFFICIENT_NAMES, PAPER_LUBRICATION, PAPER_MULTIPOLE_ORDER, paper_row
+from beadmob_post.paper import (
+    CITATION,
+    COEFFICIENT_NAMES,
+    PAPER_LUBRICATION,
+    PAPER_MULTIPOLE_ORDER,
+    PaperBeadModel,
+    paper_counterpart,
+)
 from beadmob_post.results import BeadResult, load_result
 
 FORMATS = ("csv", "md", "tex")
@@ -36,6 +43,8 @@ class Row:
     n_beads: int
     coefficients: Coefficients | None
     family: str | None
+    #: the Table `tab_mob_num` row of the same shape and L/d, if any
+    paper: PaperBeadModel | None = None
 
     @property
     def values(self) -> dict[str, float | None]:
@@ -60,12 +69,12 @@ def row_of(result: BeadResult, allow_unconverged: bool = False) -> Row:
     if result.hydrodynamics is not None:
         coefficients = compute_coefficients(result, allow_unconverged=allow_unconverged)
         family = classify(coefficients).family
-    paper = paper_row(result.shape_name)
+    paper = paper_counterpart(result.shape_name, result.reference_length)
     return Row(
         path=str(result.path), shape=result.shape_name,
         label=paper.label if paper is not None else result.shape_name,
         length_over_d=result.reference_length, n_beads=result.n_beads,
-        coefficients=coefficients, family=family,
+        coefficients=coefficients, family=family, paper=paper,
     )
 
 
@@ -145,7 +154,7 @@ def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | N
     """For each row with a paper counterpart: (quantity, beadmob, paper, relative difference)."""
     compared = []
     for row in rows:
-        paper = paper_row(row.shape)
+        paper = row.paper
         if paper is None:
             continue
         values = row.values
