@@ -202,7 +202,8 @@ def test_real_file_matches_beadmob_and_symmetry(real_hydro_file):
     # Two implementations of the same chain agree (Fortran wrote coefficients and off_pattern).
     # (to the solve tolerance: the file's mobility and coefficients agree to ~1e-10)
     np.testing.assert_allclose(c.values(), hydro.coefficients, rtol=1e-8, atol=1e-14)
-    assert c.off_pattern == pytest.approx(hydro.attributes["off_pattern"], rel=1e-6, abs=1e-14)
+    # Both see only solver noise outside the pattern (this reader symmetrises the mobility).
+    assert c.off_pattern < 1e-8 and hydro.attributes["off_pattern"] < 1e-8
     np.testing.assert_allclose(c.body_axes, hydro.body_axes, atol=1e-12)
     # The pyramid is symmetric under a quarter turn about z: mu11 = mu22 and mu42 = -mu51.
     assert c.mu11 == pytest.approx(c.mu22, rel=1e-8)
