@@ -145,10 +145,14 @@ def fit_series(series: Series, confidence: float = 0.95) -> FitResult:
     """
     y = series.tan_half_theta
     t = series.t
-    if np.any(y <= 0):
-        raise SeriesError(f"{series.path}: theta must lie in (0, pi) for tan(theta/2) > 0")
-    # Start from the straight line through log y (log y = log A - t/tau).
-    slope, intercept = np.polyfit(t, np.log(y), 1)
+    if np.any(np.abs(series.theta) >= np.pi):
+        raise SeriesError(f"{series.path}: theta must lie in (-pi, pi) (tan(theta/2) finite)")
+    # Start from the straight line through log y (log y = log A - t/tau); noise may push the
+    # last, small values below zero, which the fit itself accepts.
+    positive = y > 0
+    if positive.sum() < 2:
+        raise SeriesError(f"{series.path}: fewer than two samples with theta > 0")
+    slope, intercept = np.polyfit(t[positive], np.log(y[positive]), 1)
     try:
         parameters, covariance = curve_fit(
             model, t, y, p0=(math.exp(intercept), -slope), sigma=series.sigma_tan,
