@@ -1,0 +1,550 @@
+!> The multipole operator of a lattice bead model as a PETSc MATSHELL whose far field is an FFT
+!> convolution (design/method.md, "Why a lattice makes it fast"; theory.md T4). Same product as
+!> the direct operator (bead_operator.F90):
+!>   y_i = S x_i + sum_{j /= i} A(l_i - l_j) x_j,
+!> l the integer lattice coordinates. Because A depends on l_i - l_j only, the sum is the linear
+!> convolution of the multipole field x (zero off the beads) with the kernel K(d) = A(d)
+!> (K(0) = 0, K = 0 outside the displacement box [-span, span]^3). On a periodic box of
+!> n_a >= 2 span_a + 1 sites per axis the circular convolution equals it at every bead site
+!> (no wrapped image reaches back into [-span, span]), so it is exact up to rounding:
+!>   y = IFFT( K^(k) FFT(x)(k) ),  K^(k) an nb x nb complex block per frequency.
+!>
+!> Layout (FFTW's MPI interface, slab decomposition): the padded box is stored in C order
+!> [n0][n1][n2][nb] (Fortran (nb, n2, n1, n0)), the nb multipole fields interleaved so that one
+!> "many" plan transforms all of them with one global transpose; real space is split over ranks
+!> along n0, Fourier space (FFTW_MPI_TRANSPOSED_OUT) along n1, which saves the transpose back
+!> in both the forward and the inverse transform: the product is pointwise, so the order of the
+!> frequencies never matters as long as the kernel is transformed by the same plan.
+!>
+!> Kernel symmetry: A(-d) = A(d)^T (theory.md T4) makes K^(k) Hermitian,
+!>   K^(k)^H = sum_d A(d)^T e^{+ik.d} = sum_d A(-d) e^{+ik.d} = K^(k),
+!> so only its upper triangle is transformed and stored (nb(nb+1)/2 of nb^2 entries: half the
+!> kernel memory and kernel FFTs; the per-frequency product reads half the kernel bytes). The
+!> real-to-complex transforms store half of the frequencies (real fields, K^(-k) = conj K^(k)).
+module beadmob_fft_operator
+#include "petsc/finclude/petscmat.h"
+  use petscmat
+  use, intrinsic :: iso_c_binding
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_pair_blocks, only: self_block
+  use beadmob_block_table, only: block_table_t, make_block_table, table_block_index, lattice_tolerance
+  implicit none
+  private
+  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+
+  ! The part of FFTW's Fortran 2003 MPI interface used here, with the names, C symbols and
+  ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
+  ! included because gfortran's INCLUDE (and cpp) does not find its nested include 'fftw3.f03'
+  ! without an -I for the FFTW include directory, which the build does not pass.
+  integer(C_INT), parameter :: FFTW_ESTIMATE = 64
+  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_IN = 536870912
+  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_OUT = 1073741824
+  integer(C_INTPTR_T), parameter :: FFTW_MPI_DEFAULT_BLOCK = 0
+
+  interface
+    subroutine fftw_mpi_init() bind(C, name='fftw_mpi_init')
+    end subroutine fftw_mpi_init
+    integer(C_INTPTR_T) function fftw_mpi_local_size_many_transposed(rnk, n, howmany, block0, block1, comm, &
+                                                                     local_n0, local_0_start, local_n1, local_1_start) &
+      bind(C, name='fftw_mpi_local_size_many_transposed_f03')
+      import :: C_INT, C_INTPTR_T, C_INT32_T
+      integer(C_INT), value :: rnk
+      integer(C_INTPTR_T), dimension(*), intent(in) :: n
+      integer(C_INTPTR_T), value :: howmany, block0, block1
+      integer(C_INT32_T), value :: comm
+      integer(C_INTPTR_T), intent(out) :: local_n0, local_0_start, local_n1, local_1_start
+    end function fftw_mpi_local_size_many_transposed
+    type(C_PTR) function fftw_mpi_plan_many_dft_r2c(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
+      bind(C, name='fftw_mpi_plan_many_dft_r2c_f03')
+      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
+      integer(C_INT), value :: rnk
+      integer(C_INTPTR_T), dimension(*), intent(in) :: n
+      integer(C_INTPTR_T), value :: howmany, iblock, oblock
+      real(C_DOUBLE), dimension(*), intent(out) :: in
+      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
+      integer(C_INT32_T), value :: comm
+      integer(C_INT), value :: flags
+    end function fftw_mpi_plan_many_dft_r2c
+    type(C_PTR) function fftw_mpi_plan_many_dft_c2r(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
+      bind(C, name='fftw_mpi_plan_many_dft_c2r_f03')
+      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
+      integer(C_INT), value :: rnk
+      integer(C_INTPTR_T), dimension(*), intent(in) :: n
+      integer(C_INTPTR_T), value :: howmany, iblock, oblock
+      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: in
+      real(C_DOUBLE), dimension(*), intent(out) :: out
+      integer(C_INT32_T), value :: comm
+      integer(C_INT), value :: flags
+    end function fftw_mpi_plan_many_dft_c2r
+    subroutine fftw_mpi_execute_dft_r2c(p, in, out) bind(C, name='fftw_mpi_execute_dft_r2c')
+      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
+      type(C_PTR), value :: p
+      real(C_DOUBLE), dimension(*), intent(inout) :: in
+      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
+    end subroutine fftw_mpi_execute_dft_r2c
+    subroutine fftw_mpi_execute_dft_c2r(p, in, out) bind(C, name='fftw_mpi_execute_dft_c2r')
+      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
+      type(C_PTR), value :: p
+      complex(C_DOUBLE_COMPLEX), dimension(*), intent(inout) :: in
+      real(C_DOUBLE), dimension(*), intent(out) :: out
+    end subroutine fftw_mpi_execute_dft_c2r
+    subroutine fftw_destroy_plan(p) bind(C, name='fftw_destroy_plan')
+      import :: C_PTR
+      type(C_PTR), value :: p
+    end subroutine fftw_destroy_plan
+    type(C_PTR) function fftw_alloc_real(n) bind(C, name='fftw_alloc_real')
+      import :: C_PTR, C_SIZE_T
+      integer(C_SIZE_T), value :: n
+    end function fftw_alloc_real
+    subroutine fftw_free(p) bind(C, name='fftw_free')
+      import :: C_PTR
+      type(C_PTR), value :: p
+    end subroutine fftw_free
+  end interface
+
+  !> The MATSHELL context: kernel, plans, buffer and scatter, set once.
+  type :: fft_operator_t
+    integer :: block_size = 0
+    integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
+    real(dp), allocatable :: self_block(:, :)
+    !> The lattice (on_lattice, span, lattice, computed_blocks); its blocks are freed once the
+    !> kernel is transformed.
+    type(block_table_t) :: table
+    integer :: axes(3) = [1, 2, 3]          ! lattice axis of the fast, middle and slow FFT dimension
+    integer :: box(3) = 1                   ! padded size of the fast, middle and slow FFT dimension
+    integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
+    integer(C_INTPTR_T) :: slab_start = 0
+    integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
+    !> Upper triangle of K^(k) / M, packed by columns (entry a + b(b-1)/2 for a <= b), for
+    !> this rank's frequencies.
+    complex(C_DOUBLE_COMPLEX), allocatable :: kernel(:, :)
+    type(C_PTR) :: buffer = C_NULL_PTR, forward = C_NULL_PTR, backward = C_NULL_PTR
+    real(C_DOUBLE), pointer, contiguous :: real_data(:) => null()
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
+    Vec :: slab          ! PETSc view of real_data (this rank's real-space slab)
+    VecScatter :: to_slab
+    logical :: created = .false.
+  end type fft_operator_t
+
+  !> fftw_mpi_init once per process (a second call would be harmless but is not promised).
+  logical, save :: fftw_mpi_started = .false.
+
+  interface
+    subroutine MatCreateShell(comm, m_local, n_local, m, n, context, matrix, ierr)
+      use petscmat
+      import :: fft_operator_t
+      MPI_Comm :: comm
+      PetscInt :: m_local, n_local, m, n
+      type(fft_operator_t) :: context
+      Mat :: matrix
+      PetscErrorCode :: ierr
+    end subroutine MatCreateShell
+    subroutine MatShellGetContext(matrix, context, ierr)
+      use petscmat
+      import :: fft_operator_t
+      Mat :: matrix
+      type(fft_operator_t), pointer :: context
+      PetscErrorCode :: ierr
+    end subroutine MatShellGetContext
+  end interface
+
+contains
+
+  !> Smallest n >= minimum whose prime factors are 2, 3, 5, 7 (FFTW's fastest sizes).
+  pure integer function fft_size(minimum)
+    integer, intent(in) :: minimum
+    integer :: rest, p
+    integer, parameter :: primes(4) = [2, 3, 5, 7]
+    fft_size = max(minimum, 1)
+    do
+      rest = fft_size
+      do p = 1, size(primes)
+        do while (mod(rest, primes(p)) == 0)
+          rest = rest / primes(p)
+        end do
+      end do
+      if (rest == 1) return
+      fft_size = fft_size + 1
+    end do
+  end function fft_size
+
+  !> Collective. `op` must stay in place (not be moved or copied) while `matrix` lives: PETSc
+  !> keeps its address. On error (err set on some rank) no matrix is created and
+  !> destroy_fft_operator must not be called.
+  subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err)
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :)
+    integer(i8), intent(in) :: first_bead, n_local
+    type(fft_operator_t), target, intent(inout) :: op
+    Mat, intent(out) :: matrix
+    type(error_t), intent(inout) :: err
+    PetscErrorCode :: ierr
+    PetscInt :: local_size, global_size
+    integer :: failed_here, failed_anywhere
+
+    op%block_size = basis%size
+    op%n_beads = size(centres, 2, kind=i8)
+    op%first_bead = first_bead
+    op%n_local = n_local
+    allocate (op%self_block(basis%size, basis%size))
+    call self_block(basis, op%self_block)
+
+    ! Checked before the block table, which would otherwise store every pair of an off-lattice set.
+    call check_on_lattice(centres, err)
+    if (.not. err%failed) call make_block_table(comm, basis, centres, first_bead, n_local, op%table, err)
+    if (.not. err%failed) call plan_transforms(comm, op, err)
+    if (.not. err%failed) call transform_kernel(op, err)
+    if (allocated(op%table%blocks)) deallocate (op%table%blocks)   ! the kernel holds them now
+    failed_here = merge(1, 0, err%failed)
+    call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed_anywhere /= 0) then
+      if (.not. err%failed) call raise(err, 'the FFT operator could not be set up on another rank')
+      call free_fftw(op)
+      return
+    end if
+
+    call make_slab_scatter(comm, op, err)
+    failed_here = merge(1, 0, err%failed)
+    call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed_anywhere /= 0) then
+      if (.not. err%failed) call raise(err, 'the FFT operator could not be set up on another rank')
+      call free_fftw(op)
+      return
+    end if
+
+    local_size = int(n_local * basis%size)
+    global_size = int(op%n_beads * basis%size)
+    PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, matrix, ierr))
+    PetscCallA(MatShellSetOperation(matrix, MATOP_MULT, apply_fft_operator, ierr))
+    PetscCallA(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE, ierr))
+    PetscCallA(MatSetOption(matrix, MAT_SPD, PETSC_TRUE, ierr))
+    op%created = .true.
+  end subroutine create_fft_operator
+
+  subroutine destroy_fft_operator(op, matrix)
+    type(fft_operator_t), intent(inout) :: op
+    Mat, intent(inout) :: matrix
+    PetscErrorCode :: ierr
+    if (op%created) then
+      PetscCallA(VecScatterDestroy(op%to_slab, ierr))
+      PetscCallA(VecDestroy(op%slab, ierr))
+      PetscCallA(MatDestroy(matrix, ierr))
+      op%created = .false.
+    end if
+    call free_fftw(op)
+    if (allocated(op%kernel)) deallocate (op%kernel)
+  end subroutine destroy_fft_operator
+
+  subroutine free_fftw(op)
+    type(fft_operator_t), intent(inout) :: op
+    if (c_associated(op%forward)) call fftw_destroy_plan(op%forward)
+    if (c_associated(op%backward)) call fftw_destroy_plan(op%backward)
+    if (c_associated(op%buffer)) call fftw_free(op%buffer)
+    op%forward = C_NULL_PTR
+    op%backward = C_NULL_PTR
+    op%buffer = C_NULL_PTR
+    op%real_data => null()
+    op%spectrum => null()
+  end subroutine free_fftw
+
+  !> Every centre within lattice_tolerance of a point of the unit lattice through the lowest corner
+  !> (the same rule as the block table); otherwise name the first bead that is not.
+  subroutine check_on_lattice(centres, err)
+    real(dp), intent(in) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp) :: corner(3), offset(3)
+    integer :: i
+    if (size(centres, 2) == 0) then
+      call raise(err, 'the FFT operator needs at least one bead')
+      return
+    end if
+    corner = minval(centres, dim=2)
+    do i = 1, size(centres, 2)
+      offset = centres(:, i) - corner
+      if (any(abs(offset - anint(offset)) > lattice_tolerance)) then
+        call raise(err, 'the FFT operator needs the beads on a cubic lattice of spacing d: bead ' // str(i) // &
+                   ' at (' // str(centres(1, i)) // ', ' // str(centres(2, i)) // ', ' // str(centres(3, i)) // &
+                   ') is ' // str(maxval(abs(offset - anint(offset)))) // ' d off the lattice through the lowest ' // &
+                   'corner (tolerance ' // str(lattice_tolerance) // '); use the direct operator')
+        return
+      end if
+    end do
+  end subroutine check_on_lattice
+
+  !> Padded box, axis order, FFTW slabs, the aligned buffer and the two in-place plans.
+  subroutine plan_transforms(comm, op, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    integer :: padded(3), a, b, swap
+    integer(C_INTPTR_T) :: c_order(3), complex_shape(3), howmany, alloc_local, freq_planes, freq_start
+    real(dp) :: bytes
+
+    if (.not. fftw_mpi_started) then
+      call fftw_mpi_init()
+      fftw_mpi_started = .true.
+    end if
+    do a = 1, 3
+      padded(a) = fft_size(2 * op%table%span(a) + 1)
+    end do
+    ! The largest padded axis is the slab (slow) axis and the next the Fourier-space slab axis:
+    ! the most planes to split over ranks. The fast axis is halved by the r2c transform.
+    op%axes = [1, 2, 3]
+    do a = 1, 2
+      do b = 1, 3 - a
+        if (padded(op%axes(b)) > padded(op%axes(b + 1))) then
+          swap = op%axes(b)
+          op%axes(b) = op%axes(b + 1)
+          op%axes(b + 1) = swap
+        end if
+      end do
+    end do
+    op%box = padded(op%axes)
+    c_order = [integer(C_INTPTR_T) :: op%box(3), op%box(2), op%box(1)]
+    complex_shape = [c_order(1), c_order(2), c_order(3) / 2 + 1]
+    howmany = op%block_size
+    alloc_local = fftw_mpi_local_size_many_transposed(3, complex_shape, howmany, FFTW_MPI_DEFAULT_BLOCK, &
+                                                      FFTW_MPI_DEFAULT_BLOCK, comm, op%slab_planes, op%slab_start, &
+                                                      freq_planes, freq_start)
+    op%n_frequencies = int(freq_planes, i8) * c_order(1) * complex_shape(3)
+    ! PETSc's 32-bit indices address the slab vector (nb doubles per padded site).
+    bytes = real(op%block_size, dp) * real(c_order(1), dp) * real(c_order(2), dp) * 2 * complex_shape(3)
+    if (bytes > real(huge(1_C_INT), dp)) then
+      call raise(err, 'the padded FFT box ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // str(op%box(3)) // &
+                 ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
+      return
+    end if
+    op%buffer = fftw_alloc_real(int(2 * max(alloc_local, 1_C_INTPTR_T), C_SIZE_T))
+    if (.not. c_associated(op%buffer)) then
+      call raise(err, 'could not allocate the FFT buffer (' // str(16.0_dp * alloc_local / 1.0e9_dp) // ' GB)')
+      return
+    end if
+    call c_f_pointer(op%buffer, op%real_data, [2 * max(alloc_local, 1_C_INTPTR_T)])
+    call c_f_pointer(op%buffer, op%spectrum, [int(howmany, i8), max(op%n_frequencies, 1_i8)])
+    ! In place: the real slab and its spectrum share the buffer.
+    op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
+                                            op%real_data, op%spectrum, comm, &
+                                            ior(FFTW_ESTIMATE, FFTW_MPI_TRANSPOSED_OUT))
+    op%backward = fftw_mpi_plan_many_dft_c2r(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
+                                             op%spectrum, op%real_data, comm, &
+                                             ior(FFTW_ESTIMATE, FFTW_MPI_TRANSPOSED_IN))
+    if (.not. (c_associated(op%forward) .and. c_associated(op%backward))) &
+      call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
+                 str(op%box(3)) // ' transforms')
+  end subroutine plan_transforms
+
+  !> K^ = FFT(K) / M for the upper triangle, nb entries at a time through the operator's own
+  !> plan (no extra plan, and the transient memory is the one buffer).
+  subroutine transform_kernel(op, err)
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    integer :: nb, n_packed, batch, c, e, i, j, k, d(3), index, stat
+    integer, allocatable :: row(:), column(:)
+    integer(i8) :: site, f
+    real(dp) :: scale
+    logical :: inside
+
+    nb = op%block_size
+    n_packed = nb * (nb + 1) / 2
+    allocate (op%kernel(n_packed, max(op%n_frequencies, 1_i8)), stat=stat)
+    if (stat /= 0) then
+      call raise(err, 'could not allocate the FFT kernel (' // &
+                 str(16.0_dp * n_packed * op%n_frequencies / 1.0e9_dp) // ' GB on this rank)')
+      return
+    end if
+    allocate (row(n_packed), column(n_packed))
+    e = 0
+    do j = 1, nb
+      do i = 1, j
+        e = e + 1
+        row(e) = i
+        column(e) = j
+      end do
+    end do
+    ! The 1/M of the inverse transform, folded into the kernel once.
+    scale = 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3))
+
+    do batch = 0, (n_packed - 1) / nb
+      op%real_data = 0.0_dp
+      do k = 0, int(op%slab_planes) - 1
+        do j = 0, op%box(2) - 1
+          do i = 0, op%box(1) - 1
+            call displacement_at([i, j, int(op%slab_start) + k], d, inside)
+            if (.not. inside) cycle
+            index = table_block_index(op%table, d)
+            site = padded_site(op, i, j, k)
+            do c = 1, min(nb, n_packed - batch * nb)
+              e = batch * nb + c
+              op%real_data(site * nb + c) = op%table%blocks(row(e), column(e), index)
+            end do
+          end do
+        end do
+      end do
+      call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
+      do c = 1, min(nb, n_packed - batch * nb)
+        e = batch * nb + c
+        do f = 1, op%n_frequencies
+          op%kernel(e, f) = scale * op%spectrum(c, f)
+        end do
+        ! The diagonal of a Hermitian block is real: drop the rounding in its imaginary part.
+        if (row(e) == column(e)) op%kernel(e, :) = cmplx(real(op%kernel(e, :)), 0.0_dp, kind=C_DOUBLE_COMPLEX)
+      end do
+    end do
+
+  contains
+
+    !> The displacement (lattice axes) of padded site p (FFT dimension order), and whether it
+    !> lies in the table's box [-span, span]^3.
+    pure subroutine displacement_at(p, displacement, in_box)
+      integer, intent(in) :: p(3)
+      integer, intent(out) :: displacement(3)
+      logical, intent(out) :: in_box
+      integer :: a, axis, s
+      in_box = .true.
+      do a = 1, 3
+        axis = op%axes(a)
+        s = op%table%span(axis)
+        if (p(a) <= s) then
+          displacement(axis) = p(a)
+        else if (p(a) >= op%box(a) - s) then
+          displacement(axis) = p(a) - op%box(a)
+        else
+          in_box = .false.
+          displacement(axis) = 0
+        end if
+      end do
+    end subroutine displacement_at
+  end subroutine transform_kernel
+
+  !> 0-based index of padded site (i, j, k) in this rank's real slab (k counted from the slab
+  !> start); the fast dimension has 2 (n/2 + 1) slots (FFTW's in-place r2c padding).
+  pure integer(i8) function padded_site(op, i, j, k)
+    type(fft_operator_t), intent(in) :: op
+    integer, intent(in) :: i, j, k
+    padded_site = i + int(2 * (op%box(1) / 2 + 1), i8) * (j + int(op%box(2), i8) * k)
+  end function padded_site
+
+  !> The PETSc vector over the real slabs (this rank's part = its slab, no copy) and the scatter
+  !> from the bead-distributed vector to it, built once. A VecScatter rather than MPI_Alltoallv:
+  !> PETSc works out once which entries cross ranks and to whom, sends only those (beads whose
+  !> slab is local are copied), overlaps the messages, and the same object runs in reverse for
+  !> the result; an Alltoallv would repack counts and buffers on every product.
+  subroutine make_slab_scatter(comm, op, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    PetscErrorCode :: ierr
+    PetscInt :: slab_length, vector_start, vector_end, first_row, n_rows
+    PetscInt, allocatable :: targets(:)
+    integer :: rank, n_ranks, nb, owner, l(3), a
+    integer(i8) :: info(3), bead, i
+    integer(i8), allocatable :: all_info(:, :)
+    IS :: from, to
+    Vec :: template
+
+    nb = op%block_size
+    call MPI_Comm_rank(comm, rank, ierr)
+    call MPI_Comm_size(comm, n_ranks, ierr)
+    slab_length = int(nb * padded_site(op, 0, 0, int(op%slab_planes)))
+    PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, op%real_data, op%slab, ierr))
+    PetscCallA(VecGetOwnershipRange(op%slab, vector_start, vector_end, ierr))
+    info = [int(vector_start, i8), int(op%slab_start, i8), int(op%slab_planes, i8)]
+    allocate (all_info(3, 0:n_ranks - 1))
+    call MPI_Allgather(info, 3, MPI_INTEGER8, all_info, 3, MPI_INTEGER8, comm, ierr)
+
+    allocate (targets(op%n_local * nb))
+    do i = 1, op%n_local
+      bead = op%first_bead + i - 1
+      l = op%table%lattice(op%axes, bead)   ! fast, middle, slow
+      owner = -1
+      do a = 0, n_ranks - 1
+        if (l(3) >= all_info(2, a) .and. l(3) < all_info(2, a) + all_info(3, a)) owner = a
+      end do
+      if (owner < 0) then
+        call raise(err, 'internal error: no FFT slab holds lattice plane ' // str(l(3)))
+        return
+      end if
+      do a = 1, nb
+        targets((i - 1) * nb + a) = int(all_info(1, owner) + &
+                                        nb * padded_site(op, l(1), l(2), int(l(3) - all_info(2, owner))) + a - 1)
+      end do
+    end do
+    first_row = int((op%first_bead - 1) * nb)
+    n_rows = int(op%n_local * nb)
+    PetscCallA(ISCreateStride(comm, n_rows, first_row, 1, from, ierr))
+    PetscCallA(ISCreateGeneral(comm, n_rows, targets, PETSC_COPY_VALUES, to, ierr))
+    PetscCallA(VecCreateMPI(comm, n_rows, PETSC_DETERMINE, template, ierr))
+    PetscCallA(VecScatterCreate(template, from, op%slab, to, op%to_slab, ierr))
+    PetscCallA(VecDestroy(template, ierr))
+    PetscCallA(ISDestroy(from, ierr))
+    PetscCallA(ISDestroy(to, ierr))
+  end subroutine make_slab_scatter
+
+  !> MATOP_MULT: y = A x.
+  subroutine apply_fft_operator(matrix, x, y, ierr)
+    Mat :: matrix
+    Vec :: x, y
+    PetscErrorCode :: ierr
+    type(fft_operator_t), pointer :: op
+    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
+    integer(i8) :: i, row
+    integer :: nb
+
+    PetscCall(MatShellGetContext(matrix, op, ierr))
+    nb = op%block_size
+    ! Sites without a bead hold zero; the scatter fills the bead sites.
+    PetscCall(VecGetArrayF90(op%slab, slab, ierr))
+    op%real_data = 0.0_dp
+    PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
+    PetscCall(VecScatterBegin(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCall(VecScatterEnd(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
+
+    ! The FFTs write the array behind the PETSc vector: bracket them with Get/Restore so that
+    ! PETSc's object state (cached norms etc.) knows.
+    PetscCall(VecGetArrayF90(op%slab, slab, ierr))
+    call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
+    call multiply_spectrum(nb, op%n_frequencies, op%kernel, op%spectrum)
+    call fftw_mpi_execute_dft_c2r(op%backward, op%spectrum, op%real_data)
+    PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
+
+    PetscCall(VecScatterBegin(op%to_slab, op%slab, y, INSERT_VALUES, SCATTER_REVERSE, ierr))
+    PetscCall(VecScatterEnd(op%to_slab, op%slab, y, INSERT_VALUES, SCATTER_REVERSE, ierr))
+
+    PetscCall(VecGetArrayReadF90(x, local_x, ierr))
+    PetscCall(VecGetArrayF90(y, local_y, ierr))
+    do i = 1, op%n_local
+      row = (i - 1) * nb
+      local_y(row + 1:row + nb) = local_y(row + 1:row + nb) + matmul(op%self_block, local_x(row + 1:row + nb))
+    end do
+    PetscCall(VecRestoreArrayF90(y, local_y, ierr))
+    PetscCall(VecRestoreArrayReadF90(x, local_x, ierr))
+    ierr = 0
+  end subroutine apply_fft_operator
+
+  !> spectrum(:, f) <- K^(f) spectrum(:, f) with K^ Hermitian, its upper triangle packed by
+  !> columns: column b gives y(1:b-1) += K(1:b-1, b) x(b) and, through K(b, a) = conj K(a, b),
+  !> y(b) += sum_a conj K(a, b) x(a) (both loops contiguous in the kernel).
+  pure subroutine multiply_spectrum(nb, n_frequencies, kernel, spectrum)
+    integer, intent(in) :: nb
+    integer(i8), intent(in) :: n_frequencies
+    complex(C_DOUBLE_COMPLEX), intent(in) :: kernel(:, :)
+    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
+    complex(C_DOUBLE_COMPLEX) :: x(nb), y(nb)
+    integer(i8) :: f
+    integer :: b, top
+    do f = 1, n_frequencies
+      x = spectrum(:, f)
+      y = 0.0_dp
+      do b = 1, nb
+        top = b * (b - 1) / 2
+        y(1:b - 1) = y(1:b - 1) + kernel(top + 1:top + b - 1, f) * x(b)
+        y(b) = y(b) + sum(conjg(kernel(top + 1:top + b - 1, f)) * x(1:b - 1)) + real(kernel(top + b, f), dp) * x(b)
+      end do
+      spectrum(:, f) = y
+    end do
+  end subroutine multiply_spectrum
+end module beadmob_fft_operator
