@@ -39,7 +39,9 @@ def model_mobility(body_dimensionless: np.ndarray, axes: np.ndarray, length=LENG
 
 
 def hydro_file(make_result_file, body_dimensionless, axes_paper, geometry_axes, **options):
-    mobility = model_mobility(body_dimensionless, axes_paper)
+    mobility = model_mobility(body_dimensionless, axes_paper,
+                              options.get("reference_length", LENGTH))
+    options.setdefault("reference_length", LENGTH)
     return make_result_file(
         body_axes=geometry_axes, mirror_planes=(1.0, 1.0, 0.0),
         hydrodynamics={"friction": friction_of_mobility(mobility), **options.pop("hydro", {})},
