@@ -288,8 +288,10 @@ contains
       call fftw_mpi_init()
       fftw_mpi_started = .true.
     end if
+    ! At least 2: FFTW's MPI planner returned no plan for a size-1 dimension (flat or straight
+    ! bead sets); 2 >= 2 span + 1 keeps the convolution exact.
     do a = 1, 3
-      padded(a) = fft_size(2 * op%table%span(a) + 1)
+      padded(a) = fft_size(max(2 * op%table%span(a) + 1, 2))
     end do
     ! The largest padded axis is the slab (slow) axis and the next the Fourier-space slab axis:
     ! the most planes to split over ranks. The fast axis is halved by the r2c transform.
