@@ -128,6 +128,20 @@ def summarise(result: BeadResult) -> dict[str, Any]:
         "body_axes": result.body_axes.tolist(),
         "input_source": result.input_source,
         "metadata": {name: _jsonable(value) for name, value in result.metadata.items()},
+        "hydrodynamics": _hydro_summary(result),
+    }
+
+
+def _hydro_summary(result: BeadResult) -> dict[str, Any] | None:
+    """What /hydrodynamics holds (None without it); coefficients as beadmob wrote them."""
+    hydro = result.hydrodynamics
+    if hydro is None:
+        return None
+    return {
+        "multipole_order": hydro.multipole_order,
+        "lubrication": hydro.lubrication,
+        "all_converged": hydro.all_converged,
+        "coefficients": None if hydro.coefficients is None else hydro.coefficients.tolist(),
     }
 
 
@@ -156,6 +170,15 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"body axis {name}:      {vector(axis)}")
     if summary["input_source"] is not None:
         lines.append(f"input:            {summary['input_source']}")
+    hydro = summary.get("hydrodynamics")
+    if hydro is not None:
+        converged = {True: "all solves converged", False: "NOT CONVERGED",
+                     None: "convergence not recorded"}[hydro["all_converged"]]
+        lines.append(f"hydrodynamics:    multipole order {hydro['multipole_order']}, lubrication "
+                     f"{'yes' if hydro['lubrication'] else 'no'}, {converged}")
+        if hydro["coefficients"] is not None:
+            lines.append("mu11..mu51:       " + ", ".join(f"{v:.4g}" for v in hydro["coefficients"])
+                         + " (as written by beadmob; see 'coefficients')")
     for name, value in summary["metadata"].items():
         lines.append(f"{name + ':':<18}{value}")
     return "\n".join(lines) + "\n"

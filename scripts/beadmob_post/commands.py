@@ -26,7 +26,7 @@ from beadmob_post.classify import (
     physical_times,
 )
 from beadmob_post.mobility import Coefficients, compute_coefficients
-from beadmob_post.paper import COEFFICIENT_NAMES, paper_counterpart
+from beadmob_post.paper import TAB_MOB_NUM, COEFFICIENT_NAMES, PaperBeadModel, paper_counterpart, paper_row
 from beadmob_post.results import load_result
 
 
@@ -56,8 +56,9 @@ def add_analysis_commands(commands) -> None:
         "mu42 mu51 < 0), give the time coefficients tau51 = 1/mu51 and tau42 = 1/mu42 in the "
         "dimensionless time of eq. (eq:time) and U_f = mu33 (unit F/(pi eta L)); with the "
         "physical options, the same in seconds and m/s (eq. eq:mobility, eq:mju33).")
-    _file_argument(p)
+    _file_argument(p, optional=True)
     _hydro_options(p)
+    _paper_option(p)
     p.add_argument("--zero-tolerance", type=float, default=DEFAULT_ZERO_TOLERANCE,
                    help="mu42, mu51 count as zero below this times max(mu11, mu22, mu33) "
                    f"(default {DEFAULT_ZERO_TOLERANCE:g})")
@@ -72,8 +73,9 @@ def add_analysis_commands(commands) -> None:
         "orientation R = Rz(phi) Ry(theta) Rz(psi). With --plane the start is a tilt about body "
         "y = lab Y or x = X and the paper's closed form tan(theta/2) = A exp(mu t) is drawn and "
         "checked.")
-    _file_argument(p)
+    _file_argument(p, optional=True)
     _hydro_options(p)
+    _paper_option(p)
     p.add_argument("--theta", type=float, default=170.0, help="initial theta (deg; default 170)")
     p.add_argument("--phi", type=float, default=None, help="initial phi (deg; default 0)")
     p.add_argument("--psi", type=float, default=None, help="initial psi (deg; default 0)")
@@ -152,8 +154,16 @@ def add_analysis_commands(commands) -> None:
     p.set_defaults(handler=run_report)
 
 
-def _file_argument(parser) -> None:
-    parser.add_argument("file", type=Path, metavar="FILE", help="beadmob result file with /hydrodynamics")
+def _file_argument(parser, optional: bool = False) -> None:
+    parser.add_argument("file", type=Path, metavar="FILE", nargs="?" if optional else None,
+                        help="beadmob result file with /hydrodynamics"
+                        + (" (or --paper SHAPE)" if optional else ""))
+
+
+def _paper_option(parser) -> None:
+    parser.add_argument("--paper", choices=[row.shape for row in TAB_MOB_NUM], metavar="SHAPE",
+                        help="instead of FILE: the coefficients of Table tab_mob_num for SHAPE "
+                        "(paper's form only)")
 
 
 def _hydro_options(parser) -> None:
@@ -215,10 +225,32 @@ def _scales(arguments, coefficients: Coefficients | None):
 
 
 def _coefficients(arguments) -> Coefficients:
+    paper = getattr(arguments, "paper", None)
+    if paper is not None or arguments.file is None:
+        if paper is None:
+            raise CommandError("give a result FILE or --paper SHAPE")
+        if arguments.file is not None:
+            raise CommandError("give either a result FILE or --paper SHAPE, not both")
+        return paper_coefficients(paper_row(paper))
     if arguments.reference_length is not None and not arguments.reference_length > 0:
         raise CommandError(f"--reference-length must be positive, got {arguments.reference_length}")
     return compute_coefficients(load_result(arguments.file), arguments.reference_length,
                                 allow_unconverged=arguments.allow_unconverged)
+
+
+def paper_coefficients(row: PaperBeadModel) -> Coefficients:
+    """Table `tab_mob_num` values as Coefficients in the paper's form (no off-pattern part)."""
+    from beadmob_post.mobility import pattern_mobility
+
+    return Coefficients(
+        path=f"paper:{row.shape}", shape=row.shape, n_beads=row.n_beads,
+        reference_length=float(row.length_over_d),
+        mu11=row.mu11, mu22=row.mu22, mu33=row.mu33, mu42=row.mu42, mu51=row.mu51,
+        body_axes=np.eye(3), dimensionless_body_mobility=pattern_mobility(*row.coefficients()),
+        z_reversed=False, xy_swapped=False, off_pattern=0.0, off_pattern_entries=(),
+        mirror_planes=(1.0, 1.0, 0.0), paper_class=True, multipole_order=2, lubrication=True,
+        all_converged=True,
+    )
 
 
 def _write_json(out: TextIO, data: Any) -> None:
@@ -366,7 +398,7 @@ def run_dynamics(arguments, out: TextIO) -> int:
     trajectory = dynamics.integrate(mobility, start, t_end, n_samples=arguments.samples)
     closed = None
     lines = [f"integrated {c.shape} (N = {c.n_beads}) to t = {t_end:.6g} "
-             f"({'five coefficients' if arguments.pattern_only else 'full body mobility'})",
+             f"({_mobility_source(c, arguments.pattern_only)})",
              f"theta: {np.degrees(trajectory.theta[0]):.3f} -> {np.degrees(trajectory.theta[-1]):.6g} deg; "
              f"phi: {np.degrees(trajectory.phi[0]):.3f} -> {np.degrees(trajectory.phi[-1]):.6g} deg; "
              f"psi: {np.degrees(trajectory.psi[0]):.3f} -> {np.degrees(trajectory.psi[-1]):.6g} deg"]
@@ -378,7 +410,12 @@ def run_dynamics(arguments, out: TextIO) -> int:
                      f"largest difference {np.degrees(deviation):.2e} deg")
     scales = _scales(arguments, c)
     unit = scales.time_unit_s if scales is not None else None
-    output = arguments.output or arguments.file.with_name(f"{arguments.file.stem}_dynamics.png")
+    if arguments.output is not None:
+        output = arguments.output
+    elif arguments.file is not None:
+        output = arguments.file.with_name(f"{arguments.file.stem}_dynamics.png")
+    else:
+        output = Path(f"{c.shape}_paper_dynamics.png")
     title = (f"{c.shape}: start theta = {arguments.theta:g} deg"
              + (f", rotation about {arguments.plane}" if arguments.plane else ""))
     save(dynamics_figure(trajectory, title, closed, unit), output)
@@ -388,6 +425,12 @@ def run_dynamics(arguments, out: TextIO) -> int:
         lines.append(f"wrote {arguments.csv}")
     out.write("\n".join(lines) + "\n")
     return 0
+
+
+def _mobility_source(c: Coefficients, pattern_only: bool) -> str:
+    if c.path.startswith("paper:"):
+        return "coefficients of Table tab_mob_num"
+    return "five coefficients only" if pattern_only else "full body mobility"
 
 
 # ----------------------------------------------------------------------------- fit

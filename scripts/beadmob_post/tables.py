@@ -187,7 +187,7 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
         integer = quantity in ("L/d", "N")
         shown = "n/a" if value is None else (f"{value:g}" if integer else f"{value:.4f}")
         paper_text = f"{paper_value:g}" if integer else f"{paper_value:.3f}"
-        diff = "" if difference is None else f"; {100 * difference:+.1f} %"
+        diff = "" if difference is None else f"; {100 * difference:+.{2 if integer else 1}f} %"
         if fmt == "tex":
             diff = diff.replace("%", r"\%")
         return f"{shown} ({paper_text}{diff})"

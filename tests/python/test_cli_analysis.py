@@ -99,6 +99,25 @@ def test_dynamics_general_start_with_seconds(capsys, settler_file, tmp_path):
     assert (tmp_path / "d.png").stat().st_size > 10_000
 
 
+def test_paper_coefficients_without_a_file(capsys, tmp_path):
+    # Crescent moon of tab_mob_num: a settler whose rotation about y = Y picks up rotation
+    # about z while theta > pi/2 (section "Discussion and conclusions").
+    status, out, _ = run(capsys, "classify", "--paper", "crescent_moon", "--json")
+    data = json.loads(out)
+    assert data["family"] == "settler" and data["tau42"] == pytest.approx(1 / 0.381)
+    table = tmp_path / "moon.csv"
+    status, out, _ = run(capsys, "dynamics", "--paper", "crescent_moon", "--theta", "175",
+                         "--psi", "10", "-o", tmp_path / "moon.png", "--csv", table)
+    assert status == 0 and "Table tab_mob_num" in out
+    rows = list(csv.DictReader(io.StringIO(table.read_text())))
+    psi = np.array([float(row["psi_deg"]) for row in rows])
+    theta = np.array([float(row["theta_deg"]) for row in rows])
+    assert psi[theta > 90].max() > 3 * psi[0]       # spin about z grows while theta > 90 deg
+    assert abs(psi[-1]) < 1.0 and theta[-1] < 0.1   # and dies out at the stable orientation
+    status, _, err = run(capsys, "classify")
+    assert status == 2 and "give a result FILE or --paper SHAPE" in err
+
+
 def test_fit_table_and_mu(capsys, tmp_path):
     t = np.arange(0.0, 30.0)
     paths = []
@@ -131,7 +150,7 @@ def test_table_and_compare_outputs(capsys, make_result_file, tmp_path):
     bars = tmp_path / "bars.png"
     status, out, _ = run(capsys, "compare", cone, "--plot", bars)
     assert status == 0
-    assert "| Cone | 21 (21; +0.0 %) | 4 (5088; -99.9 %) | 0.2690 (0.269; +0.0 %)" in out
+    assert "| Cone | 21 (21; +0.00 %) | 4 (5088; -99.92 %) | 0.2690 (0.269; +0.0 %)" in out
     assert bars.stat().st_size > 10_000
 
 

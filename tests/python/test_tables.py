@@ -93,7 +93,7 @@ def test_comparison_with_the_paper(make_result_file):
     lines = list(csv.DictReader(io.StringIO(format_comparison(rows, "csv"))))
     assert len(lines) == 7 and {line["object"] for line in lines} == {"Arrowhead"}
     markdown = format_comparison(rows, "md")
-    assert "| Arrowhead | 29 (29; +0.0 %) | 4 (5104; -99.9 %) | 0.4220 (0.422; +0.0 %)" in markdown
+    assert "| Arrowhead | 29 (29; +0.00 %) | 4 (5104; -99.92 %) | 0.4220 (0.422; +0.0 %)" in markdown
     assert "Table tab_mob_num" in markdown
     assert r"\%" in format_comparison(rows, "tex")
 
