@@ -7,16 +7,17 @@ run-specific metadata (creation time, number of MPI ranks) and, in /hydrodynamic
 results of iterative solves: with a different number of ranks the Krylov reductions sum in
 another order, so friction, mobility and coefficients are compared to a relative tolerance
 (--solver-rtol, default 1e-9 of the largest entry) and the solver diagnostics (residuals,
-iteration counts, symmetry error) are not compared.
+iteration counts, symmetry error) and wall times are not compared.
 """
 import sys
 
 import h5py
 import numpy as np
 
-RUN_SPECIFIC = {"created", "mpi_ranks"}
-SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern"}
-SOLVER_RESULTS = {"friction", "mobility", "body_mobility", "coefficients"}
+RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds"}
+SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
+                      "plain_symmetry_error", "variational_correction"}
+SOLVER_RESULTS = {"friction", "multipole_friction", "mobility", "body_mobility", "coefficients"}
 
 
 def collect(path):

@@ -1,8 +1,11 @@
 !> Friction of a rigid bead model: six Krylov solves A q = c, one per unit rigid motion
 !> (translations along x, y, z; rotations about x, y, z through the reference point), with c the
 !> projections of the bead surface velocities on the multipole basis; the force and torque of
-!> the solved multipoles give the columns of the 6x6 friction matrix (theory.md T5;
-!> Cichocki et al., J. Chem. Phys. 100, 3780 (1994), section II).
+!> the solved multipoles give the 6x6 friction matrix (theory.md T5; Cichocki et al., J. Chem.
+!> Phys. 100, 3780 (1994), section II). zeta_mn = c_m . q_n is evaluated in its variational form
+!> c_m . q_n + q_m . r_n (r_n = c_n - A q_n the residual), whose error is quadratic in the solver
+!> error, -e_m^T A e_n, instead of linear: the friction is then accurate far below the Krylov
+!> tolerance, symmetric, and independent of the number of ranks to rounding.
 !> Default Krylov method: CG, since A is the Galerkin matrix of the Stokes single-layer operator in
 !> an orthonormal basis, symmetric positive definite (theory.md T6); default preconditioner: the
 !> inverse of the single-bead block on every bead (a PCSHELL, SPD as CG needs).
@@ -24,6 +27,10 @@ module beadmob_rigid_body_solve
     real(dp) :: true_relative_residual(6) = 0.0_dp
     character(len=80) :: ksp_type = '', pc_type = ''
     real(dp) :: relative_tolerance = 0.0_dp
+    !> ||Z - Z^T|| / ||Z|| of the plain estimate Z_mn = c_m . q_n (a measure of the solver error)
+    real(dp) :: plain_symmetry_error = 0.0_dp
+    !> max |q_m . r_n| / max |zeta|: size of the variational correction (the plain estimate's error)
+    real(dp) :: variational_correction = 0.0_dp
   end type solve_statistics_t
 
   !> PCSHELL context: the inverse single-bead block, applied bead by bead.
@@ -65,7 +72,8 @@ contains
     type(bead_block_preconditioner_t), target :: preconditioner
     KSP :: ksp
     PC :: pc
-    Vec :: rhs, solution, residual
+    Vec :: template
+    Vec, allocatable :: rhs(:), solution(:), residual(:)
     PetscErrorCode :: ierr
     PetscScalar, pointer :: values(:)
     PetscReal :: rhs_norm, residual_norm, rtol, abstol, dtol
@@ -73,9 +81,9 @@ contains
     KSPConvergedReason :: reason
     KSPType :: ksp_type
     PCType :: pc_type
-    real(dp) :: local_sums(6), arm(3), force_torque(6)
+    real(dp) :: arm(3), plain(6, 6), correction(6, 6)
     integer(i8) :: i, bead
-    integer :: motion, nb
+    integer :: motion, other, nb
 
     nb = size(projection, 1)
     preconditioner%block_size = nb
@@ -91,45 +99,47 @@ contains
     PetscCallA(PCShellSetName(pc, 'single-bead blocks', ierr))
     PetscCallA(KSPSetTolerances(ksp, 1.0e-10_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
-    PetscCallA(MatCreateVecs(matrix, solution, rhs, ierr))
-    PetscCallA(VecDuplicate(rhs, residual, ierr))
+    PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
+    allocate (rhs(6), solution(6), residual(6))
+    do motion = 1, 6
+      PetscCallA(VecDuplicate(template, rhs(motion), ierr))
+      PetscCallA(VecDuplicate(template, solution(motion), ierr))
+      PetscCallA(VecDuplicate(template, residual(motion), ierr))
+    end do
 
-    friction = 0.0_dp
     do motion = 1, 6
       ! c_i = projection (U_i, Omega_i), U_i = V + w x (R_i - R_0), Omega_i = w.
-      PetscCallA(VecGetArrayF90(rhs, values, ierr))
+      PetscCallA(VecGetArrayF90(rhs(motion), values, ierr))
       do i = 1, n_local
         bead = first_bead + i - 1
         arm = centres(:, bead) - reference_point
         values(nb * (i - 1) + 1:nb * i) = matmul(projection, rigid_velocity(motion, arm))
       end do
-      PetscCallA(VecRestoreArrayF90(rhs, values, ierr))
-      PetscCallA(VecZeroEntries(solution, ierr))
-      PetscCallA(KSPSolve(ksp, rhs, solution, ierr))
+      PetscCallA(VecRestoreArrayF90(rhs(motion), values, ierr))
+      PetscCallA(VecZeroEntries(solution(motion), ierr))
+      PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
       PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
       PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
-      ! True residual ||c - A q|| / ||c||, independent of the preconditioned norm KSP monitors.
-      PetscCallA(MatMult(matrix, solution, residual, ierr))
-      PetscCallA(VecAYPX(residual, -1.0_dp, rhs, ierr))
-      PetscCallA(VecNorm(residual, NORM_2, residual_norm, ierr))
-      PetscCallA(VecNorm(rhs, NORM_2, rhs_norm, ierr))
+      ! True residual r = c - A q, independent of the preconditioned norm KSP monitors.
+      PetscCallA(MatMult(matrix, solution(motion), residual(motion), ierr))
+      PetscCallA(VecAYPX(residual(motion), -1.0_dp, rhs(motion), ierr))
+      PetscCallA(VecNorm(residual(motion), NORM_2, residual_norm, ierr))
+      PetscCallA(VecNorm(rhs(motion), NORM_2, rhs_norm, ierr))
       stats%iterations(motion) = int(iterations)
       stats%converged_reason(motion) = int(reason)
       stats%true_relative_residual(motion) = residual_norm / rhs_norm
-
-      ! Column `motion`: total force and torque (about the reference point) on the fluid.
-      local_sums = 0.0_dp
-      PetscCallA(VecGetArrayReadF90(solution, values, ierr))
-      do i = 1, n_local
-        bead = first_bead + i - 1
-        arm = centres(:, bead) - reference_point
-        force_torque = matmul(values(nb * (i - 1) + 1:nb * i), projection)
-        local_sums(1:3) = local_sums(1:3) + force_torque(1:3)
-        local_sums(4:6) = local_sums(4:6) + force_torque(4:6) + cross(arm, force_torque(1:3))
-      end do
-      PetscCallA(VecRestoreArrayReadF90(solution, values, ierr))
-      call MPI_Allreduce(local_sums, friction(:, motion), 6, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
     end do
+
+    ! zeta_mn = c_m . q_n + q_m . r_n (the force and torque of solution n projected on motion m).
+    do motion = 1, 6
+      do other = 1, 6
+        PetscCallA(VecDot(rhs(motion), solution(other), plain(motion, other), ierr))
+        PetscCallA(VecDot(solution(motion), residual(other), correction(motion, other), ierr))
+      end do
+    end do
+    friction = plain + correction
+    stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
+    stats%variational_correction = maxval(abs(correction)) / maxval(abs(friction))
 
     PetscCallA(KSPGetType(ksp, ksp_type, ierr))
     PetscCallA(PCGetType(pc, pc_type, ierr))
@@ -138,9 +148,12 @@ contains
     stats%pc_type = pc_type
     if (pc_type == PCSHELL) stats%pc_type = 'single-bead blocks'
     stats%relative_tolerance = rtol
-    PetscCallA(VecDestroy(rhs, ierr))
-    PetscCallA(VecDestroy(solution, ierr))
-    PetscCallA(VecDestroy(residual, ierr))
+    do motion = 1, 6
+      PetscCallA(VecDestroy(rhs(motion), ierr))
+      PetscCallA(VecDestroy(solution(motion), ierr))
+      PetscCallA(VecDestroy(residual(motion), ierr))
+    end do
+    PetscCallA(VecDestroy(template, ierr))
     PetscCallA(KSPDestroy(ksp, ierr))
   end subroutine rigid_body_friction
 

@@ -230,3 +230,15 @@ def test_real_unconverged_file_as_the_user_sees_it(run_command, beadmob_output_d
     if not path.exists():
         pytest.skip(f"{path} not written (CTest test flagged_nonconvergence_np2 writes it)")
     assert_one_line_error(run_command("classify", path), str(path), "not converged")
+
+
+def test_info_reports_hydrodynamics(capsys, make_result_file):
+    path = hydro_file(make_result_file, dimensionless_pattern(), np.eye(3), np.eye(3),
+                      name="u.h5", hydro={"all_converged": 0, "multipole_order": 2, "lubrication": 1})
+    status, out, _ = run(capsys, "info", path)
+    assert status == 0
+    assert "hydrodynamics:    multipole order 2, lubrication yes, NOT CONVERGED" in out
+    status, out, _ = run(capsys, "info", "--json", path)
+    assert json.loads(out)["hydrodynamics"]["all_converged"] is False
+    status, out, _ = run(capsys, "info", "--json", make_result_file(name="g.h5"))
+    assert json.loads(out)["hydrodynamics"] is None
