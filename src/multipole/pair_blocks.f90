@@ -40,7 +40,7 @@ contains
     ! About 40 + 1.5 (L + 3) e-folds of the integrand's Gauss-Legendre error (theory.md T4).
     n_theta = ceiling((40.0_dp + 1.5_dp * (order + 3)) / log(rho)) / 2 + order + 8
     n_theta = min(max(n_theta, order + 8), 400)
-    n_phi = 2 * order + 8
+    n_phi = 2 * azimuthal_extent(basis) + 8
     call projected_fields(basis, -displacement, displacement, n_theta, n_phi, block)
   end subroutine pair_block
 
@@ -49,9 +49,18 @@ contains
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(out) :: block(:, :)
     call projected_fields(basis, [0.0_dp, 0.0_dp, 1.0_dp], [0.0_dp, 0.0_dp, 0.0_dp], basis%order + 4, &
-                          2 * basis%order + 6, block)
+                          2 * azimuthal_extent(basis) + 6, block)
     block = 0.5_dp * (block + transpose(block))   ! symmetric in exact arithmetic
   end subroutine self_block
+
+  !> Largest |k| in the basis. About the pair axis the integrand is a trigonometric polynomial of
+  !> degree <= 2 max|k| + 2 (the vector components add one each), so the azimuthal trapezoid rule
+  !> with 2 max|k| + 8 points is exact. A basis restricted to small |k| (two-sphere tables on the
+  !> z axis) thus needs few azimuthal points.
+  pure integer function azimuthal_extent(basis)
+    type(multipole_basis_t), intent(in) :: basis
+    azimuthal_extent = maxval(abs(basis%harmonic))
+  end function azimuthal_extent
 
   !> block(alpha, beta) = sum_p w_p phi_alpha(y_p) . u_beta(y_p + displacement), y_p on S_i.
   subroutine projected_fields(basis, axis, displacement, n_theta, n_phi, block)
