@@ -26,7 +26,7 @@ from beadmob_post.classify import (
     physical_times,
 )
 from beadmob_post.mobility import Coefficients, compute_coefficients
-from beadmob_post.paper import TAB_MOB_NUM, COEFFICIENT_NAMES, PaperBeadModel, paper_counterpart, paper_row
+from beadmob_post.paper import TAB_MOB_NUM, PaperBeadModel, paper_counterpart, paper_row
 from beadmob_post.results import load_result
 
 
@@ -558,4 +558,4 @@ def run_report(arguments, out: TextIO) -> int:
     return 0
 
 
-__all__ = ["CommandError", "add_analysis_commands", "COEFFICIENT_NAMES"]
+__all__ = ["CommandError", "add_analysis_commands"]

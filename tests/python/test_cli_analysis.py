@@ -190,6 +190,15 @@ def test_real_files_end_to_end(capsys, beadmob_output_dir, real_hydro_file, tmp_
     assert sum(line.startswith("| ") for line in comparison) == 1 + 7  # header + 7 shapes
     table = list(csv.DictReader((tmp_path / "coefficients.csv").open()))
     assert len(table) == 8 and table[-1]["family"] == "settler"
+    # dynamics of the real file -> its theta(t) CSV -> fit gives back 1/tau = -mu51.
+    series = tmp_path / "pyramid.csv"
+    status, out, _ = run(capsys, "dynamics", real_hydro_file, "--plane", "y", "--theta", "170",
+                         "--samples", "60", "-o", tmp_path / "p.png", "--csv", series)
+    assert status == 0
+    status, out, _ = run(capsys, "fit", series, "-o", tmp_path / "fit.csv")
+    fit = next(csv.DictReader((tmp_path / "fit.csv").open()))
+    assert float(fit["rate_per_unit_t"]) == pytest.approx(-data["coefficients"]["mu51"], rel=1e-6)
+    assert float(fit["r_squared"]) == pytest.approx(1.0, abs=1e-9)
 
 
 # ---------------------------------------------------------------- errors, as the user sees them
