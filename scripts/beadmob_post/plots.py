@@ -46,7 +46,8 @@ def coefficient_bars(rows) -> Figure:
         axes.axhline(0.0, color="black", linewidth=0.6)
         axes.set_xticks(positions, [row.label for row in rows], rotation=45, ha="right")
         axes.set_title(_GREEK[name])
-    axes_row[0].legend(loc="best", fontsize="small")
+    handles, names = axes_row[0].get_legend_handles_labels()
+    figure.legend(handles, names, loc="outside lower center", ncols=2)
     orders = sorted({row.coefficients.multipole_order for row in rows} - {None})
     figure.suptitle("Mobility coefficients, beadmob (multipole order "
                     f"{', '.join(map(str, orders)) or '?'}) vs paper (order 2 + lubrication)")
