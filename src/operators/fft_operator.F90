@@ -16,10 +16,20 @@
 !> in both the forward and the inverse transform: the product is pointwise, so the order of the
 !> frequencies never matters as long as the kernel is transformed by the same plan.
 !>
-!> Kernel symmetry: A(-d) = A(d)^T (theory.md T4) makes K^(k) Hermitian,
-!>   K^(k)^H = sum_d A(d)^T e^{+ik.d} = sum_d A(-d) e^{+ik.d} = K^(k),
-!> so only its upper triangle is transformed and stored (nb(nb+1)/2 of nb^2 entries: half the
-!> kernel memory and kernel FFTs; the per-frequency product reads half the kernel bytes). The
+!> Kernel symmetries, which make the stored kernel one real number per (a <= b) pair and
+!> frequency instead of nb^2 complex ones:
+!>  - A(-d) = A(d)^T (theory.md T4) makes K^(k) Hermitian:
+!>      K^(k)^H = sum_d A(d)^T e^{+ik.d} = sum_d A(-d) e^{+ik.d} = K^(k);
+!>    only the upper triangle is transformed and stored.
+!>  - Inversion: every basis density has a parity, phi_a(-y) = p_a phi_a(y) with p = (-1)^(n-1)
+!>    for sigma = 0, 2 and (-1)^n for sigma = 1 (theory.md T2: grad R_n, y x grad R_n,
+!>    grad I_n); its single-layer field has the same parity, so A(-d)_ab = p_a p_b A(d)_ab. An
+!>    entry with p_a p_b = 1 is even in d, its transform real; one with p_a p_b = -1 is odd, its
+!>    transform imaginary. The fields are stored even unknowns first ("slots"), so K^ is
+!>      [ R_ee     i J_eo ]      R_ee, R_oo real symmetric, J_eo real,
+!>      [ -i J_eo^T  R_oo ]
+!>    and the per-frequency product is real matrices times complex vectors.
+!> create_fft_operator checks both relations on the block table before relying on them. The
 !> real-to-complex transforms store half of the frequencies (real fields, K^(-k) = conj K^(k)).
 module beadmob_fft_operator
 #include "petsc/finclude/petscmat.h"
@@ -118,9 +128,11 @@ module beadmob_fft_operator
     integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
     integer(C_INTPTR_T) :: slab_start = 0
     integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
-    !> Upper triangle of K^(k) / M, packed by columns (entry a + b(b-1)/2 for a <= b), for
-    !> this rank's frequencies.
-    complex(C_DOUBLE_COMPLEX), allocatable :: kernel(:, :)
+    integer :: n_even = 0                   ! unknowns of even parity (slots 1..n_even)
+    integer, allocatable :: slot(:)         ! field slot of each unknown
+    !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
+    !> for this rank's frequencies: the real part, or for an even-odd entry the imaginary part.
+    real(dp), allocatable :: kernel(:, :)
     type(C_PTR) :: buffer = C_NULL_PTR, forward = C_NULL_PTR, backward = C_NULL_PTR
     real(C_DOUBLE), pointer, contiguous :: real_data(:) => null()
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
@@ -196,6 +208,8 @@ contains
     ! Checked before the block table, which would otherwise store every pair of an off-lattice set.
     call check_on_lattice(centres, err)
     if (.not. err%failed) call make_block_table(comm, basis, centres, first_bead, n_local, op%table, err)
+    if (.not. err%failed) call order_by_parity(basis, op)
+    if (.not. err%failed) call check_symmetries(op, err)
     if (.not. err%failed) call plan_transforms(comm, op, err)
     if (.not. err%failed) call transform_kernel(op, err)
     if (allocated(op%table%blocks)) deallocate (op%table%blocks)   ! the kernel holds them now
@@ -275,6 +289,69 @@ contains
     end do
   end subroutine check_on_lattice
 
+  !> Slots: the even unknowns first, then the odd ones, each in basis order.
+  subroutine order_by_parity(basis, op)
+    type(multipole_basis_t), intent(in) :: basis
+    type(fft_operator_t), intent(inout) :: op
+    integer :: a, next_even, next_odd
+    logical :: even(basis%size)
+    do a = 1, basis%size
+      even(a) = inversion_parity(basis%degree(a), basis%family(a)) == 1
+    end do
+    op%n_even = count(even)
+    allocate (op%slot(basis%size))
+    next_even = 0
+    next_odd = op%n_even
+    do a = 1, basis%size
+      if (even(a)) then
+        next_even = next_even + 1
+        op%slot(a) = next_even
+      else
+        next_odd = next_odd + 1
+        op%slot(a) = next_odd
+      end if
+    end do
+  end subroutine order_by_parity
+
+  !> Inversion parity of a basis density of degree n, family sigma (see the module header).
+  pure integer function inversion_parity(n, sigma)
+    integer, intent(in) :: n, sigma
+    inversion_parity = merge(-1, 1, mod(n + merge(0, 1, sigma == 1), 2) == 1)
+  end function inversion_parity
+
+  !> The kernel's storage rests on A(-d) = A(d)^T and A(-d) = P A(d) P: refuse a table that
+  !> breaks them beyond rounding (e.g. a basis whose functions have no definite parity).
+  subroutine check_symmetries(op, err)
+    type(fft_operator_t), intent(in) :: op
+    type(error_t), intent(inout) :: err
+    integer :: n_blocks, centre, index, mirror, a, b
+    real(dp) :: sign(op%block_size), largest, worst_transpose, worst_parity
+    real(dp), parameter :: tolerance = 1.0e-10_dp
+    n_blocks = size(op%table%blocks, 3)
+    centre = table_block_index(op%table, [0, 0, 0])   ! mid-box: index of -d is 2 centre - index
+    do a = 1, op%block_size
+      sign(a) = merge(1.0_dp, -1.0_dp, op%slot(a) <= op%n_even)
+    end do
+    largest = maxval(abs(op%table%blocks))
+    worst_transpose = 0.0_dp
+    worst_parity = 0.0_dp
+    do index = centre + 1, n_blocks
+      mirror = 2 * centre - index              ! displacement -d
+      worst_transpose = max(worst_transpose, maxval(abs(op%table%blocks(:, :, mirror) &
+                                                        - transpose(op%table%blocks(:, :, index)))))
+      do b = 1, op%block_size
+        do a = 1, op%block_size
+          worst_parity = max(worst_parity, abs(op%table%blocks(a, b, mirror) &
+                                               - sign(a) * sign(b) * op%table%blocks(a, b, index)))
+        end do
+      end do
+    end do
+    if (max(worst_transpose, worst_parity) > tolerance * largest) &
+      call raise(err, 'the FFT operator needs lattice blocks with A(-d) = A(d)^T and A(-d) = P A(d) P; ' // &
+                 'the block table breaks them by ' // str(max(worst_transpose, worst_parity) / max(largest, tiny(1.0_dp))) // &
+                 ' relative')
+  end subroutine check_symmetries
+
   !> Padded box, axis order, FFTW slabs, the aligned buffer and the two in-place plans.
   subroutine plan_transforms(comm, op, err)
     MPI_Comm, intent(in) :: comm
@@ -339,14 +416,14 @@ contains
                  str(op%box(3)) // ' transforms')
   end subroutine plan_transforms
 
-  !> K^ = FFT(K) / M for the upper triangle, nb entries at a time through the operator's own
-  !> plan (no extra plan, and the transient memory is the one buffer).
+  !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through the
+  !> operator's own plan (no extra plan; the transient memory is the one buffer).
   subroutine transform_kernel(op, err)
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
-    integer :: nb, n_packed, batch, c, e, i, j, k, d(3), index, stat
-    integer, allocatable :: row(:), column(:)
-    integer(i8) :: site, f
+    integer :: nb, n_packed, batch, c, e, i, j, k, s, t, d(3), index, stat
+    integer, allocatable :: row(:), column(:), unknown(:)
+    integer(i8) :: site
     real(dp) :: scale
     logical :: inside
 
@@ -355,16 +432,20 @@ contains
     allocate (op%kernel(n_packed, max(op%n_frequencies, 1_i8)), stat=stat)
     if (stat /= 0) then
       call raise(err, 'could not allocate the FFT kernel (' // &
-                 str(16.0_dp * n_packed * op%n_frequencies / 1.0e9_dp) // ' GB on this rank)')
+                 str(8.0_dp * n_packed * op%n_frequencies / 1.0e9_dp) // ' GB on this rank)')
       return
     end if
-    allocate (row(n_packed), column(n_packed))
+    ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t.
+    allocate (row(n_packed), column(n_packed), unknown(nb))
+    do i = 1, nb
+      unknown(op%slot(i)) = i
+    end do
     e = 0
-    do j = 1, nb
-      do i = 1, j
+    do t = 1, nb
+      do s = 1, t
         e = e + 1
-        row(e) = i
-        column(e) = j
+        row(e) = unknown(s)
+        column(e) = unknown(t)
       end do
     end do
     ! The 1/M of the inverse transform, folded into the kernel once.
@@ -389,11 +470,13 @@ contains
       call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
       do c = 1, min(nb, n_packed - batch * nb)
         e = batch * nb + c
-        do f = 1, op%n_frequencies
-          op%kernel(e, f) = scale * op%spectrum(c, f)
-        end do
-        ! The diagonal of a Hermitian block is real: drop the rounding in its imaginary part.
-        if (row(e) == column(e)) op%kernel(e, :) = cmplx(real(op%kernel(e, :)), 0.0_dp, kind=C_DOUBLE_COMPLEX)
+        ! Even entries have a real transform, odd (even-odd slot) ones an imaginary one; the
+        ! other part is rounding.
+        if (op%slot(row(e)) <= op%n_even .and. op%slot(column(e)) > op%n_even) then
+          op%kernel(e, 1:op%n_frequencies) = scale * aimag(op%spectrum(c, 1:op%n_frequencies))
+        else
+          op%kernel(e, 1:op%n_frequencies) = scale * real(op%spectrum(c, 1:op%n_frequencies), dp)
+        end if
       end do
     end do
 
@@ -472,7 +555,8 @@ contains
       end if
       do a = 1, nb
         targets((i - 1) * nb + a) = int(all_info(1, owner) + &
-                                        nb * padded_site(op, l(1), l(2), int(l(3) - all_info(2, owner))) + a - 1)
+                                        nb * padded_site(op, l(1), l(2), int(l(3) - all_info(2, owner))) + &
+                                        op%slot(a) - 1)
       end do
     end do
     first_row = int((op%first_bead - 1) * nb)
@@ -509,7 +593,7 @@ contains
     ! PETSc's object state (cached norms etc.) knows.
     PetscCall(VecGetArrayF90(op%slab, slab, ierr))
     call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
-    call multiply_spectrum(nb, op%n_frequencies, op%kernel, op%spectrum)
+    call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%kernel, op%spectrum)
     call fftw_mpi_execute_dft_c2r(op%backward, op%spectrum, op%real_data)
     PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
 
@@ -527,24 +611,35 @@ contains
     ierr = 0
   end subroutine apply_fft_operator
 
-  !> spectrum(:, f) <- K^(f) spectrum(:, f) with K^ Hermitian, its upper triangle packed by
-  !> columns: column b gives y(1:b-1) += K(1:b-1, b) x(b) and, through K(b, a) = conj K(a, b),
-  !> y(b) += sum_a conj K(a, b) x(a) (both loops contiguous in the kernel).
-  pure subroutine multiply_spectrum(nb, n_frequencies, kernel, spectrum)
-    integer, intent(in) :: nb
+  !> spectrum(:, f) <- K^(f) spectrum(:, f), K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed
+  !> upper triangle (module header). Column t of the triangle gives y(s) += K(s, t) x(t) for
+  !> s < t and, by symmetry, y(t) += K(t, s) x(s): contiguous loops over the kernel column.
+  pure subroutine multiply_spectrum(nb, n_even, n_frequencies, kernel, spectrum)
+    integer, intent(in) :: nb, n_even
     integer(i8), intent(in) :: n_frequencies
-    complex(C_DOUBLE_COMPLEX), intent(in) :: kernel(:, :)
+    real(dp), intent(in) :: kernel(:, :)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
-    complex(C_DOUBLE_COMPLEX) :: x(nb), y(nb)
+    complex(C_DOUBLE_COMPLEX), parameter :: i_unit = (0.0_dp, 1.0_dp)
+    complex(C_DOUBLE_COMPLEX) :: x(nb), y(nb), ix
     integer(i8) :: f
-    integer :: b, top
+    integer :: t, top
     do f = 1, n_frequencies
       x = spectrum(:, f)
       y = 0.0_dp
-      do b = 1, nb
-        top = b * (b - 1) / 2
-        y(1:b - 1) = y(1:b - 1) + kernel(top + 1:top + b - 1, f) * x(b)
-        y(b) = y(b) + sum(conjg(kernel(top + 1:top + b - 1, f)) * x(1:b - 1)) + real(kernel(top + b, f), dp) * x(b)
+      do t = 1, n_even                  ! even-even: real symmetric
+        top = t * (t - 1) / 2
+        y(1:t - 1) = y(1:t - 1) + kernel(top + 1:top + t - 1, f) * x(t)
+        y(t) = y(t) + sum(kernel(top + 1:top + t - 1, f) * x(1:t - 1)) + kernel(top + t, f) * x(t)
+      end do
+      do t = n_even + 1, nb
+        top = t * (t - 1) / 2
+        ! even-odd: K(s, t) = i J(s, t), K(t, s) = -i J(s, t)
+        ix = i_unit * x(t)
+        y(1:n_even) = y(1:n_even) + kernel(top + 1:top + n_even, f) * ix
+        y(t) = y(t) - i_unit * sum(kernel(top + 1:top + n_even, f) * x(1:n_even))
+        ! odd-odd: real symmetric
+        y(n_even + 1:t - 1) = y(n_even + 1:t - 1) + kernel(top + n_even + 1:top + t - 1, f) * x(t)
+        y(t) = y(t) + sum(kernel(top + n_even + 1:top + t - 1, f) * x(n_even + 1:t - 1)) + kernel(top + t, f) * x(t)
       end do
       spectrum(:, f) = y
     end do

@@ -212,7 +212,7 @@ contains
     real(dp), allocatable :: beads(:, :), sites(:, :)
     logical, allocatable :: keep(:)
     integer :: k
-    sites = box_beads(counts)
+    allocate (sites, source=box_beads(counts))
     allocate (keep(size(sites, 2)))
     do k = 1, size(sites, 2)
       keep(k) = hash_uniform(int(k, i8) + 424242_i8) < probability
