@@ -1,7 +1,8 @@
 !> The two-bead blocks an operator product needs, computed once. Beads on a cubic lattice of
 !> spacing d (the paper's models) have blocks that depend on the integer lattice displacement
-!> only: one table over the displacement box [-span, span]^3 serves every pair, and only half of
-!> it is computed (A(-r) = A(r)^T, theory.md T4), shared over the MPI ranks. Off-lattice bead sets
+!> only: one table over the displacement box [-span, span]^3 serves every pair. Quadrature is done
+!> only for displacements that the 48 lattice symmetries and A(-r) = A(r)^T (theory.md T4) do not
+!> relate, shared over the MPI ranks. Off-lattice bead sets
 !> (bead files) store the blocks of this rank's rows for every column bead instead.
 module beadmob_block_table
   use mpi
@@ -10,6 +11,7 @@ module beadmob_block_table
   use beadmob_strings, only: str
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: pair_block
+  use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
   implicit none
   private
   public :: block_table_t, make_block_table, table_block_index, lattice_tolerance
@@ -66,16 +68,17 @@ contains
     end if
   end subroutine make_block_table
 
-  !> Every displacement of the box; the ranks share the half with positive "linear index" and
-  !> the rest is the transpose.
+  !> Every displacement of the box. Quadrature only for the canonical displacements
+  !> (d_1 >= d_2 >= d_3 >= 0, shared over the ranks); the rest by the lattice symmetries,
+  !> A(Q c) = D_Q A(c) D_Q^T, on the half box, and A(-d) = A(d)^T for the other half.
   subroutine fill_lattice_table(comm, basis, table, err)
     integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
-    integer :: width(3), n_blocks, centre_index, n_half, rank, n_ranks, ierr, nb, h, index, d(3), mine
-    integer, allocatable :: counts(:), offsets(:)
-    real(dp), allocatable :: half(:, :, :)
+    integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, m, n_canonical, mine
+    integer, allocatable :: counts(:), offsets(:), canonical_id(:, :, :), canonical_list(:, :)
+    real(dp), allocatable :: canonical_blocks(:, :, :), computed(:, :, :), transforms(:, :, :)
     real(dp) :: bytes
 
     nb = basis%size
@@ -88,37 +91,57 @@ contains
                  str(nb) // ' unknowns per bead); the limit is ' // str(max_store_bytes / 1.0e9_dp) // ' GB')
       return
     end if
-    allocate (table%blocks(nb, nb, n_blocks))
     centre_index = table_block_index(table, [0, 0, 0])
-    n_half = n_blocks - centre_index     ! indices centre_index+1 .. n_blocks
+
+    ! The canonical displacements the half box needs.
+    m = maxval(table%span)
+    allocate (canonical_id(0:m, 0:m, 0:m), canonical_list(3, (m + 1)**3))
+    canonical_id = 0
+    n_canonical = 0
+    do index = centre_index + 1, n_blocks
+      call canonical_displacement(displacement_of(index), c, s)
+      if (canonical_id(c(1), c(2), c(3)) == 0) then
+        n_canonical = n_canonical + 1
+        canonical_id(c(1), c(2), c(3)) = n_canonical
+        canonical_list(:, n_canonical) = c
+      end if
+    end do
+
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
     allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
     do h = 0, n_ranks - 1
-      counts(h) = n_half / n_ranks + merge(1, 0, h < mod(n_half, n_ranks))
+      counts(h) = n_canonical / n_ranks + merge(1, 0, h < mod(n_canonical, n_ranks))
     end do
     offsets(0) = 0
     do h = 1, n_ranks - 1
       offsets(h) = offsets(h - 1) + counts(h - 1)
     end do
     mine = counts(rank)
-    allocate (half(nb, nb, max(mine, 1)))
+    allocate (computed(nb, nb, max(mine, 1)), canonical_blocks(nb, nb, max(n_canonical, 1)))
     do h = 1, mine
-      index = centre_index + offsets(rank) + h
-      d = displacement_of(index)
-      call pair_block(basis, real(d, dp), half(:, :, h))
+      call pair_block(basis, real(canonical_list(:, offsets(rank) + h), dp), computed(:, :, h))
     end do
     counts = counts * nb * nb
     offsets = offsets * nb * nb
-    call MPI_Allgatherv(half, mine * nb * nb, MPI_DOUBLE_PRECISION, table%blocks(:, :, centre_index + 1:), counts, &
-                        offsets, MPI_DOUBLE_PRECISION, comm, ierr)
+    call MPI_Allgatherv(computed, mine * nb * nb, MPI_DOUBLE_PRECISION, canonical_blocks, counts, offsets, &
+                        MPI_DOUBLE_PRECISION, comm, ierr)
     if (ierr /= MPI_SUCCESS) call raise(err, 'MPI_Allgatherv of the block table failed')
-    ! Mirror: displacement -d has index 2 centre_index - index; its block is the transpose.
+    deallocate (computed)
+
+    allocate (transforms(nb, nb, n_symmetries), table%blocks(nb, nb, n_blocks))
+    call basis_transforms(basis, transforms)
     do index = centre_index + 1, n_blocks
+      d = displacement_of(index)
+      call canonical_displacement(d, c, s)
+      table%blocks(:, :, index) = matmul(transforms(:, :, s), &
+                                         matmul(canonical_blocks(:, :, canonical_id(c(1), c(2), c(3))), &
+                                                transpose(transforms(:, :, s))))
+      ! Displacement -d has index 2 centre_index - index.
       table%blocks(:, :, 2 * centre_index - index) = transpose(table%blocks(:, :, index))
     end do
     table%blocks(:, :, centre_index) = 0.0_dp   ! the self block is the operator's business
-    table%computed_blocks = n_half
+    table%computed_blocks = n_canonical
 
   contains
 
