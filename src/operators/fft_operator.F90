@@ -184,8 +184,8 @@ contains
   end function fft_size
 
   !> Collective. `op` must stay in place (not be moved or copied) while `matrix` lives: PETSc
-  !> keeps its address. On error (err set on some rank) no matrix is created and
-  !> destroy_fft_operator must not be called.
+  !> keeps its address. On error (err set on some rank) no matrix is created; calling
+  !> destroy_fft_operator then is harmless.
   subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
@@ -325,24 +325,23 @@ contains
     type(fft_operator_t), intent(in) :: op
     type(error_t), intent(inout) :: err
     integer :: n_blocks, centre, index, mirror, a, b
-    real(dp) :: sign(op%block_size), largest, worst_transpose, worst_parity
+    real(dp) :: signs(op%block_size), largest, worst_transpose, worst_parity
     real(dp), parameter :: tolerance = 1.0e-10_dp
     n_blocks = size(op%table%blocks, 3)
     centre = table_block_index(op%table, [0, 0, 0])   ! mid-box: index of -d is 2 centre - index
     do a = 1, op%block_size
-      sign(a) = merge(1.0_dp, -1.0_dp, op%slot(a) <= op%n_even)
+      signs(a) = merge(1.0_dp, -1.0_dp, op%slot(a) <= op%n_even)
     end do
     largest = maxval(abs(op%table%blocks))
     worst_transpose = 0.0_dp
     worst_parity = 0.0_dp
     do index = centre + 1, n_blocks
       mirror = 2 * centre - index              ! displacement -d
-      worst_transpose = max(worst_transpose, maxval(abs(op%table%blocks(:, :, mirror) &
-                                                        - transpose(op%table%blocks(:, :, index)))))
       do b = 1, op%block_size
         do a = 1, op%block_size
+          worst_transpose = max(worst_transpose, abs(op%table%blocks(a, b, mirror) - op%table%blocks(b, a, index)))
           worst_parity = max(worst_parity, abs(op%table%blocks(a, b, mirror) &
-                                               - sign(a) * sign(b) * op%table%blocks(a, b, index)))
+                                               - signs(a) * signs(b) * op%table%blocks(a, b, index)))
         end do
       end do
     end do
@@ -359,7 +358,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: padded(3), a, b, swap
     integer(C_INTPTR_T) :: c_order(3), complex_shape(3), howmany, alloc_local, freq_planes, freq_start
-    real(dp) :: bytes
+    real(dp) :: entries
 
     if (.not. fftw_mpi_started) then
       call fftw_mpi_init()
@@ -391,18 +390,19 @@ contains
                                                       freq_planes, freq_start)
     op%n_frequencies = int(freq_planes, i8) * c_order(1) * complex_shape(3)
     ! PETSc's 32-bit indices address the slab vector (nb doubles per padded site).
-    bytes = real(op%block_size, dp) * real(c_order(1), dp) * real(c_order(2), dp) * 2 * complex_shape(3)
-    if (bytes > real(huge(1_C_INT), dp)) then
+    entries = real(op%block_size, dp) * real(c_order(1), dp) * real(c_order(2), dp) * 2 * complex_shape(3)
+    if (entries > real(huge(1_C_INT), dp)) then
       call raise(err, 'the padded FFT box ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // str(op%box(3)) // &
                  ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
       return
     end if
-    op%buffer = fftw_alloc_real(int(2 * max(alloc_local, 1_C_INTPTR_T), C_SIZE_T))
+    alloc_local = max(alloc_local, howmany)   ! a rank without planes still gets a valid buffer
+    op%buffer = fftw_alloc_real(int(2 * alloc_local, C_SIZE_T))
     if (.not. c_associated(op%buffer)) then
       call raise(err, 'could not allocate the FFT buffer (' // str(16.0_dp * alloc_local / 1.0e9_dp) // ' GB)')
       return
     end if
-    call c_f_pointer(op%buffer, op%real_data, [2 * max(alloc_local, 1_C_INTPTR_T)])
+    call c_f_pointer(op%buffer, op%real_data, [2 * alloc_local])
     call c_f_pointer(op%buffer, op%spectrum, [int(howmany, i8), max(op%n_frequencies, 1_i8)])
     ! In place: the real slab and its spectrum share the buffer.
     op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
@@ -551,6 +551,7 @@ contains
       end do
       if (owner < 0) then
         call raise(err, 'internal error: no FFT slab holds lattice plane ' // str(l(3)))
+        PetscCallA(VecDestroy(op%slab, ierr))
         return
       end if
       do a = 1, nb
