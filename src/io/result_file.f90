@@ -164,11 +164,14 @@ contains
     call write_attribute(group, 'off_pattern', mobility%off_pattern, err)
     call write_attribute(group, 'z_reversed', merge(1, 0, mobility%z_reversed), err)
     call write_attribute(group, 'coefficient_names', 'mu11 mu22 mu33 mu42 mu51', err)
-    call write_replicated_dataset(ctx, group, 'friction', mobility%friction, err)
-    call write_replicated_dataset(ctx, group, 'multipole_friction', hydro%multipole_friction, err)
-    call write_replicated_dataset(ctx, group, 'mobility', mobility%mobility, err)
+    ! HDF5 stores in C order: a Fortran array appears transposed to C/Python readers, so the 6x6
+    ! matrices are written transposed to read as documented, [row, column]. body_axes is not: its
+    ! Fortran columns (the axes) are then the rows readers see.
+    call write_replicated_dataset(ctx, group, 'friction', transpose(mobility%friction), err)
+    call write_replicated_dataset(ctx, group, 'multipole_friction', transpose(hydro%multipole_friction), err)
+    call write_replicated_dataset(ctx, group, 'mobility', transpose(mobility%mobility), err)
     call write_replicated_dataset(ctx, group, 'body_axes', mobility%body_axes, err)
-    call write_replicated_dataset(ctx, group, 'body_mobility', mobility%body_mobility, err)
+    call write_replicated_dataset(ctx, group, 'body_mobility', transpose(mobility%body_mobility), err)
     call write_replicated_dataset(ctx, group, 'coefficients', mobility%coefficients, err)
     names = motion_names(1)
     do k = 2, 6
