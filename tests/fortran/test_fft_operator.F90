@@ -1,11 +1,11 @@
 !> The FFT lattice operator (src/operators/fft_operator.F90) against the direct operator
 !> (bead_operator.F90) built from the same block table: for random x the two products agree to
 !> 1e-12 relative (max-norm of the difference / max-norm of the direct product) on a small cone, a
-!> box, a random compact subset of a 6 x 5 x 4 box (fixed seed), a flat plate, a line and one bead,
-!> at L = 1, 2, 3 (and L2 = L - 1 on the random set). The exactness holds because the padded
-!> circular convolution equals the linear one (n >= 2 span + 1 per axis), so only rounding
-!> separates the two. Also: off-lattice beads are refused with a message, and the FFT operator is
-!> symmetric (<u, A v> = <v, A u>), as CG needs.
+!> box, a random compact subset of a 6 x 5 x 4 box (fixed seed; also in reversed bead order), a flat
+!> plate, a line and one bead, at L = 1, 2, 3 with L2 = max(L - 2, 0), and at L = 2, L2 = 1 (odd
+!> block size) on the random set. Exact up to rounding because the padded circular convolution
+!> equals the linear one (n >= 2 span + 1 per axis). Also: off-lattice beads are refused with a
+!> message, and the FFT operator is symmetric (<u, A v> = <v, A u>), as CG needs.
 program test_fft_operator
 #include "petsc/finclude/petscmat.h"
   use petscmat
@@ -50,6 +50,8 @@ program test_fft_operator
     call compare(random_set, order, max(order - 2, 0), 'random subset of a 6 x 5 x 4 box')
   end do
   call compare(random_set, 2, 1, 'random subset of a 6 x 5 x 4 box (L2 = 1)')
+  ! Bead order unrelated to the slabs: each rank's beads scatter to every slab.
+  call compare(random_set(:, size(random_set, 2):1:-1), 2, 0, 'random subset, reversed order')
   call compare(plate, 2, 0, 'flat 5 x 4 plate')
   call compare(line, 2, 0, 'line of 6 beads')
   call compare(one, 2, 0, 'one bead')
