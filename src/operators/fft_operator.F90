@@ -423,7 +423,8 @@ contains
     type(error_t), intent(inout) :: err
     integer :: nb, n_packed, batch, c, e, i, j, k, s, t, d(3), index, stat
     integer, allocatable :: row(:), column(:), unknown(:)
-    integer(i8) :: site
+    logical, allocatable :: odd(:)
+    integer(i8) :: site, f
     real(dp) :: scale
     logical :: inside
 
@@ -436,7 +437,7 @@ contains
       return
     end if
     ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t.
-    allocate (row(n_packed), column(n_packed), unknown(nb))
+    allocate (row(n_packed), column(n_packed), unknown(nb), odd(n_packed))
     do i = 1, nb
       unknown(op%slot(i)) = i
     end do
@@ -446,6 +447,7 @@ contains
         e = e + 1
         row(e) = unknown(s)
         column(e) = unknown(t)
+        odd(e) = s <= op%n_even .and. t > op%n_even
       end do
     end do
     ! The 1/M of the inverse transform, folded into the kernel once.
@@ -468,15 +470,17 @@ contains
         end do
       end do
       call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
-      do c = 1, min(nb, n_packed - batch * nb)
-        e = batch * nb + c
-        ! Even entries have a real transform, odd (even-odd slot) ones an imaginary one; the
-        ! other part is rounding.
-        if (op%slot(row(e)) <= op%n_even .and. op%slot(column(e)) > op%n_even) then
-          op%kernel(e, 1:op%n_frequencies) = scale * aimag(op%spectrum(c, 1:op%n_frequencies))
-        else
-          op%kernel(e, 1:op%n_frequencies) = scale * real(op%spectrum(c, 1:op%n_frequencies), dp)
-        end if
+      ! Even entries have a real transform, odd (even-odd slot) ones an imaginary one; the
+      ! other part is rounding. Frequency-outer: contiguous writes into the kernel.
+      do f = 1, op%n_frequencies
+        do c = 1, min(nb, n_packed - batch * nb)
+          e = batch * nb + c
+          if (odd(e)) then
+            op%kernel(e, f) = scale * aimag(op%spectrum(c, f))
+          else
+            op%kernel(e, f) = scale * real(op%spectrum(c, f), dp)
+          end if
+        end do
       end do
     end do
 
