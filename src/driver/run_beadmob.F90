@@ -12,7 +12,7 @@ module beadmob_run
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_result_file, only: write_result_file
-  use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names
+  use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
   use beadmob_mobility, only: mobility_result_t, compute_mobility
   implicit none
   private
@@ -62,6 +62,7 @@ contains
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
       settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
+      call operator_option(settings%operator_name)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
       call compute_mobility(hydro%friction, frame%axes, model%reference_length, mobility, err)
@@ -84,6 +85,8 @@ contains
       ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
       str(hydro%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
       lubrication_summary(config%hydrodynamics%lubrication, hydro%lubrication_pairs)
+    write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
+      ', preconditioner ' // trim(hydro%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error

@@ -14,7 +14,7 @@ module beadmob_block_table
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
   implicit none
   private
-  public :: block_table_t, make_block_table, table_block_index, lattice_tolerance
+  public :: block_table_t, make_block_table, table_block_index, lattice_tolerance, on_unit_lattice
 
   !> Beads are on the lattice when every centre is within this distance (d) of a lattice point.
   real(dp), parameter :: lattice_tolerance = 1.0e-9_dp
@@ -40,6 +40,21 @@ contains
     table_block_index = 1 + (displacement(1) + table%span(1)) + width(1) * ((displacement(2) + table%span(2)) &
                         + width(2) * (displacement(3) + table%span(3)))
   end function table_block_index
+
+  !> True when every centre is within lattice_tolerance of the unit lattice through the lowest corner.
+  pure logical function on_unit_lattice(centres)
+    real(dp), intent(in) :: centres(:, :)
+    real(dp) :: corner(3)
+    integer :: i
+    corner = minval(centres, dim=2)
+    on_unit_lattice = .true.
+    do i = 1, size(centres, 2)
+      if (any(abs(centres(:, i) - corner - anint(centres(:, i) - corner)) > lattice_tolerance)) then
+        on_unit_lattice = .false.
+        return
+      end if
+    end do
+  end function on_unit_lattice
 
   !> Collective over comm. first, n_local: this rank's rows (off-lattice case).
   subroutine make_block_table(comm, basis, centres, first, n_local, table, err)

@@ -5,16 +5,20 @@ module beadmob_friction_job
 #include "petsc/finclude/petscmat.h"
   use petscmat
   use beadmob_kinds, only: dp, i8
-  use beadmob_errors, only: error_t
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_pair_blocks, only: rigid_projection
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
+  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+  use beadmob_block_table, only: on_unit_lattice
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
   implicit none
   private
-  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names
+  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
+            operator_option
 
   character(len=*), parameter :: phase_names(4) = [character(len=11) :: 'blocks', 'solve', 'lubrication', 'total']
 
@@ -23,6 +27,8 @@ module beadmob_friction_job
     integer :: potential_order = 0     ! L2
     logical :: lubrication = .true.
     real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
+    !> 'direct', 'fft', or 'auto' (the faster one for the job, see choose_operator)
+    character(len=16) :: operator_name = 'auto'
   end type friction_settings_t
 
   type :: friction_result_t
@@ -30,6 +36,7 @@ module beadmob_friction_job
     real(dp) :: multipole_friction(6, 6) = 0.0_dp ! order L alone
     type(solve_statistics_t) :: solves
     integer :: unknowns_per_bead = 0
+    character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0
     integer :: lubrication_pairs = 0
@@ -48,7 +55,8 @@ contains
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
     type(multipole_basis_t) :: basis
-    type(bead_operator_t), target :: op
+    type(bead_operator_t), target :: direct_op
+    type(fft_operator_t), target :: fft_op
     real(dp), allocatable :: projection(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix
@@ -61,16 +69,35 @@ contains
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
-    call create_bead_operator(ctx%comm, basis, centres, first, count, op, matrix, err)
-    call agree_on_error(ctx, err)
-    if (err%failed) return
-    result%on_lattice = op%table%on_lattice
-    result%computed_blocks = op%table%computed_blocks
+    call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err)
+    if (err%failed) return   ! same input on every rank: same outcome
+    if (result%operator_name == 'fft') then
+      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) then
+        call destroy_fft_operator(fft_op, matrix)
+        return
+      end if
+      result%on_lattice = fft_op%table%on_lattice
+      result%computed_blocks = fft_op%table%computed_blocks
+    else
+      call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      result%on_lattice = direct_op%table%on_lattice
+      result%computed_blocks = direct_op%table%computed_blocks
+    end if
     result%seconds(1) = MPI_Wtime() - start
 
-    call rigid_body_friction(ctx%comm, matrix, op%self_block, projection, centres, first, count, reference_point, &
-                             result%multipole_friction, result%solves)
-    call destroy_bead_operator(op, matrix)
+    if (result%operator_name == 'fft') then
+      call rigid_body_friction(ctx%comm, matrix, fft_op%self_block, projection, centres, first, count, &
+                               reference_point, result%multipole_friction, result%solves)
+      call destroy_fft_operator(fft_op, matrix)
+    else
+      call rigid_body_friction(ctx%comm, matrix, direct_op%self_block, projection, centres, first, count, &
+                               reference_point, result%multipole_friction, result%solves)
+      call destroy_bead_operator(direct_op, matrix)
+    end if
     result%seconds(2) = MPI_Wtime() - start - result%seconds(1)
 
     result%friction = result%multipole_friction
@@ -92,4 +119,46 @@ contains
     result%seconds(4) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
   end subroutine friction_of_model
+
+  !> The PETSc command-line option -operator direct|fft|auto (default auto).
+  subroutine operator_option(name)
+    character(len=*), intent(inout) :: name
+    character(len=16) :: value
+    PetscBool :: found
+    PetscErrorCode :: ierr
+    PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-operator', value, found, ierr))
+    if (found) name = value
+  end subroutine operator_option
+
+  !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
+  !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
+  !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
+  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads).
+  subroutine choose_operator(requested, centres, block_size, chosen, err)
+    character(len=*), intent(in) :: requested
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: block_size
+    character(len=*), intent(out) :: chosen
+    type(error_t), intent(inout) :: err
+    real(dp) :: direct_work, fft_work, sites
+    integer :: axis
+    select case (trim(requested))
+    case ('direct', 'fft')
+      chosen = requested
+    case ('auto')
+      chosen = 'direct'
+      if (on_unit_lattice(centres)) then
+        sites = 1.0_dp
+        do axis = 1, 3
+          sites = sites * fft_size(2 * nint(maxval(centres(axis, :)) - minval(centres(axis, :))) + 1)
+        end do
+        direct_work = real(size(centres, 2), dp)**2 * block_size
+        fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
+        if (direct_work > fft_work) chosen = 'fft'
+      end if
+    case default
+      chosen = ''
+      call raise(err, "-operator must be 'direct', 'fft' or 'auto', got '" // trim(requested) // "'")
+    end select
+  end subroutine choose_operator
 end module beadmob_friction_job
