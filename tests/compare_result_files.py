@@ -17,7 +17,8 @@ import numpy as np
 RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds"}
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction"}
-SOLVER_RESULTS = {"friction", "multipole_friction", "mobility", "body_mobility", "coefficients"}
+SOLVER_RESULTS = {"friction", "multipole_friction", "mobility", "body_mobility", "coefficients",
+                  "multipole_coefficients"}
 
 
 def collect(path):

@@ -46,9 +46,15 @@ contains
     write (*, '(a)') 'usage: beadmob [INPUT.nml] [PETSc options]', &
       '       mpirun -n P beadmob [INPUT.nml] [PETSc options]', &
       '', &
-      'Builds the bead model described by INPUT.nml (Fortran namelists &run and &shape;', &
-      'see README.md) and writes the result file named by &run output.', &
-      'Without INPUT.nml: the built-in default job, the paper''s cone, written to beadmob_result.h5.', &
-      'PETSc options (-log_view, -ksp_type, ...) are passed to PETSc.'
+      'Builds the bead model described by INPUT.nml (Fortran namelists &run, &shape and, for the', &
+      'friction and mobility, &hydrodynamics; see README.md) and writes the result file named by', &
+      '&run output. Without INPUT.nml: the built-in default job, the paper''s cone and its mobility', &
+      'at multipole order 2, written to beadmob_result.h5.', &
+      '', &
+      'Options of beadmob (after INPUT.nml):', &
+      '  -operator direct|fft|auto   the bead operator (default auto: the faster one for the job)', &
+      '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
+      '  -geometry_only              build and check the bead model, skip &hydrodynamics', &
+      'PETSc options (-log_view, -ksp_type, -ksp_rtol, -pc_type, ...) are passed to PETSc.'
   end subroutine print_usage
 end program beadmob

@@ -31,6 +31,7 @@ contains
     type(mobility_result_t) :: mobility
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
+    logical :: geometry_only
     character(len=:), allocatable :: text, source
 
     text = ''
@@ -56,17 +57,21 @@ contains
     ! Without a paper value, L is the size along the body x axis (paper: x along L).
     if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
 
-    ! Hydrodynamics only when asked for (&hydrodynamics group): a geometry job skips it.
+    ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
+    call operator_option(settings, geometry_only)
+    if (geometry_only) config%hydrodynamics%enabled = .false.
     if (config%hydrodynamics%enabled) then
       settings%order = config%hydrodynamics%multipole_order
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
       settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
-      call operator_option(settings%operator_name)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
-      call compute_mobility(hydro%friction, frame%axes, model%reference_length, mobility, err)
+      call compute_mobility(hydro%multipole_friction, frame%axes, model%reference_length, mobility, err)
       if (err%failed) return   ! same replicated friction on every rank: same outcome
+      hydro%multipole_coefficients = mobility%coefficients
+      call compute_mobility(hydro%friction, frame%axes, model%reference_length, mobility, err)
+      if (err%failed) return
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
     else
       call write_result_file(ctx, config, model, frame, err)

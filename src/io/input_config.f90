@@ -46,7 +46,10 @@ module beadmob_input_config
     !> Highest degree of the sigma = 2 (potential) multipole family, L2; default max(L - 2, 0),
     !> which gives the 2L(L+2) unknowns per bead of the paper's L = 2 (docs/theory.md T3).
     integer :: potential_order = unset_int
-    logical :: lubrication = .true.
+    !> Off by default: for dense bead bodies the pairwise rigid-doublet correction overcorrects the
+    !> friction several-fold, and without it L = 2 reproduces the paper's Table tab_mob_num
+    !> (bench/paper_table.md, docs/theory.md T9).
+    logical :: lubrication = .false.
     !> Pairs of beads with centre distance <= cutoff (units of d) get the lubrication correction.
     real(dp) :: lubrication_cutoff = 2.0_dp
   end type hydrodynamics_config_t
@@ -80,7 +83,8 @@ contains
   end function is_set_int
 
   !> Parse the namelist text of an input file (`source` names it in messages).
-  !> An empty text means: the built-in default run (the paper's cone).
+  !> An empty text means: the built-in default run (the paper's cone and its mobility at the
+  !> default &hydrodynamics settings).
   subroutine parse_input_text(text, source, config, err)
     character(len=*), intent(in) :: text, source
     type(run_config_t), intent(out) :: config
@@ -90,7 +94,11 @@ contains
 
     config%source = source
     config%text = text
-    if (len_trim(text) == 0 .and. source == built_in_source) return
+    if (len_trim(text) == 0 .and. source == built_in_source) then
+      config%hydrodynamics%enabled = .true.
+      config%hydrodynamics%potential_order = max(config%hydrodynamics%multipole_order - 2, 0)
+      return
+    end if
     call split_lines(text, lines)
     call check_group_names(lines, source, err)
     if (err%failed) return

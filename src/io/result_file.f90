@@ -200,6 +200,7 @@ contains
       call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
       call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)
       call write_attribute(group, 'lubrication_reference_order', hydro%lubrication_reference_order, err)
+      call write_replicated_dataset(ctx, group, 'multipole_coefficients', hydro%multipole_coefficients, err)
       if (size(hydro%lubrication_table%distances) > 0) then
         call write_replicated_dataset(ctx, group, 'lubrication_distances', hydro%lubrication_table%distances, err)
         call write_replicated_dataset(ctx, group, 'lubrication_corrections', hydro%lubrication_table%correction, err)

@@ -13,6 +13,7 @@ module beadmob_friction_job
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
   use beadmob_block_table, only: on_unit_lattice
+  use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
   implicit none
@@ -20,7 +21,8 @@ module beadmob_friction_job
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
             operator_option
 
-  character(len=*), parameter :: phase_names(4) = [character(len=11) :: 'blocks', 'solve', 'lubrication', 'total']
+  character(len=*), parameter :: phase_names(5) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
+                                                   'lubrication', 'total']
 
   type :: friction_settings_t
     integer :: order = 2                ! L
@@ -29,14 +31,19 @@ module beadmob_friction_job
     real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
     !> 'direct', 'fft', or 'auto' (the faster one for the job, see choose_operator)
     character(len=16) :: operator_name = 'auto'
+    !> Pairs within this distance (d) enter the near-field preconditioning matrix.
+    real(dp) :: near_field_radius = 0.0_dp
   end type friction_settings_t
 
   type :: friction_result_t
     real(dp) :: friction(6, 6) = 0.0_dp           ! with lubrication when asked for
     real(dp) :: multipole_friction(6, 6) = 0.0_dp ! order L alone
+    real(dp) :: multipole_coefficients(5) = 0.0_dp ! the paper's coefficients of the order-L friction alone
     type(solve_statistics_t) :: solves
     integer :: unknowns_per_bead = 0
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
+    real(dp) :: near_field_radius = 0.0_dp
+    integer(i8) :: near_field_pairs = 0            ! pair blocks in the preconditioning matrix
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0
     integer :: lubrication_pairs = 0
@@ -57,11 +64,12 @@ contains
     type(multipole_basis_t) :: basis
     type(bead_operator_t), target :: direct_op
     type(fft_operator_t), target :: fft_op
-    real(dp), allocatable :: projection(:, :)
+    real(dp), allocatable :: projection(:, :), self(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
-    Mat :: matrix
-    integer(i8) :: first, count
+    Mat :: matrix, near_field
+    integer(i8) :: first, count, local_pairs8
     integer :: ierr, local_pairs
+    PetscErrorCode :: petsc_ierr
 
     start = MPI_Wtime()
     basis = make_multipole_basis(settings%order, settings%potential_order)
@@ -80,25 +88,32 @@ contains
       end if
       result%on_lattice = fft_op%table%on_lattice
       result%computed_blocks = fft_op%table%computed_blocks
+      self = fft_op%self_block
     else
       call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
       call agree_on_error(ctx, err)
       if (err%failed) return
       result%on_lattice = direct_op%table%on_lattice
       result%computed_blocks = direct_op%table%computed_blocks
+      self = direct_op%self_block
     end if
-    result%seconds(1) = MPI_Wtime() - start
+    call mark(1)
 
+    result%near_field_radius = settings%near_field_radius
+    call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, near_field, &
+                             local_pairs8)
+    call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
+    call mark(2)
+
+    call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
+                             result%multipole_friction, result%solves)
+    PetscCallA(MatDestroy(near_field, petsc_ierr))
     if (result%operator_name == 'fft') then
-      call rigid_body_friction(ctx%comm, matrix, fft_op%self_block, projection, centres, first, count, &
-                               reference_point, result%multipole_friction, result%solves)
       call destroy_fft_operator(fft_op, matrix)
     else
-      call rigid_body_friction(ctx%comm, matrix, direct_op%self_block, projection, centres, first, count, &
-                               reference_point, result%multipole_friction, result%solves)
       call destroy_bead_operator(direct_op, matrix)
     end if
-    result%seconds(2) = MPI_Wtime() - start - result%seconds(1)
+    call mark(3)
 
     result%friction = result%multipole_friction
     if (settings%lubrication) then
@@ -115,19 +130,34 @@ contains
       result%friction = result%friction + lubrication_sum
       result%lubrication_reference_order = reference_order
     end if
-    result%seconds(3) = MPI_Wtime() - start - sum(result%seconds(1:2))
-    result%seconds(4) = MPI_Wtime() - start
+    call mark(4)
+    result%seconds(5) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+
+  contains
+
+    !> seconds(phase) = time since the end of the previous phase.
+    subroutine mark(phase)
+      integer, intent(in) :: phase
+      result%seconds(phase) = MPI_Wtime() - start - sum(result%seconds(1:phase - 1))
+    end subroutine mark
   end subroutine friction_of_model
 
-  !> The PETSc command-line option -operator direct|fft|auto (default auto).
-  subroutine operator_option(name)
-    character(len=*), intent(inout) :: name
+  !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
+  !> auto), -near_field_radius R (d) and -geometry_only (skip the friction job).
+  subroutine operator_option(settings, geometry_only)
+    type(friction_settings_t), intent(inout) :: settings
+    logical, intent(out) :: geometry_only
     character(len=16) :: value
     PetscBool :: found
+    PetscReal :: radius
     PetscErrorCode :: ierr
     PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-operator', value, found, ierr))
-    if (found) name = value
+    if (found) settings%operator_name = value
+    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_radius', radius, found, ierr))
+    if (found) settings%near_field_radius = radius
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
+    geometry_only = found
   end subroutine operator_option
 
   !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the

@@ -7,8 +7,9 @@
 !> error, -e_m^T A e_n, instead of linear: the friction is then accurate far below the Krylov
 !> tolerance, symmetric, and independent of the number of ranks to rounding.
 !> Default Krylov method: CG, since A is the Galerkin matrix of the Stokes single-layer operator in
-!> an orthonormal basis, symmetric positive definite (theory.md T6); default preconditioner: the
-!> inverse of the single-bead block on every bead (a PCSHELL, SPD as CG needs).
+!> an orthonormal basis, symmetric positive definite (theory.md T6). The preconditioner works on an
+!> assembled near-field matrix (beadmob_near_field_matrix); default: its Cholesky factorisation by
+!> MUMPS; -pc_type pbjacobi gives the single-bead blocks alone. Every -ksp_/-pc_ option applies.
 module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp
@@ -33,43 +34,19 @@ module beadmob_rigid_body_solve
     real(dp) :: variational_correction = 0.0_dp
   end type solve_statistics_t
 
-  !> PCSHELL context: the inverse single-bead block, applied bead by bead.
-  type :: bead_block_preconditioner_t
-    integer :: block_size = 0
-    real(dp), allocatable :: inverse_block(:, :)
-  end type bead_block_preconditioner_t
-
-  interface
-    subroutine PCShellSetContext(pc, context, ierr)
-      use petscksp
-      import :: bead_block_preconditioner_t
-      PC :: pc
-      type(bead_block_preconditioner_t) :: context
-      PetscErrorCode :: ierr
-    end subroutine PCShellSetContext
-    subroutine PCShellGetContext(pc, context, ierr)
-      use petscksp
-      import :: bead_block_preconditioner_t
-      PC :: pc
-      type(bead_block_preconditioner_t), pointer :: context
-      PetscErrorCode :: ierr
-    end subroutine PCShellGetContext
-  end interface
-
 contains
 
   !> Collective. `centres` holds all beads; this rank owns beads first..first+n_local-1, with
   !> nb = size(projection, 1) unknowns each. projection(:, m): the basis projection of unit motion
   !> m of one bead about its centre (its transpose gives force and torque from the multipoles).
-  subroutine rigid_body_friction(comm, matrix, self_block, projection, centres, first_bead, n_local, &
+  subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
                                  reference_point, friction, stats)
     MPI_Comm, intent(in) :: comm
-    Mat, intent(in) :: matrix
-    real(dp), intent(in) :: self_block(:, :), projection(:, :), centres(:, :), reference_point(3)
+    Mat, intent(in) :: matrix, preconditioning_matrix
+    real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
     integer(i8), intent(in) :: first_bead, n_local
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
-    type(bead_block_preconditioner_t), target :: preconditioner
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -86,18 +63,13 @@ contains
     integer :: motion, other, nb
 
     nb = size(projection, 1)
-    preconditioner%block_size = nb
-    preconditioner%inverse_block = inverse_spd(self_block)
-
     PetscCallA(KSPCreate(comm, ksp, ierr))
-    PetscCallA(KSPSetOperators(ksp, matrix, matrix, ierr))
+    PetscCallA(KSPSetOperators(ksp, matrix, preconditioning_matrix, ierr))
     PetscCallA(KSPSetType(ksp, KSPCG, ierr))
     PetscCallA(KSPGetPC(ksp, pc, ierr))
-    PetscCallA(PCSetType(pc, PCSHELL, ierr))
-    PetscCallA(PCShellSetContext(pc, preconditioner, ierr))
-    PetscCallA(PCShellSetApply(pc, apply_bead_block_preconditioner, ierr))
-    PetscCallA(PCShellSetName(pc, 'single-bead blocks', ierr))
-    PetscCallA(KSPSetTolerances(ksp, 1.0e-10_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
+    PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
+    PetscCallA(KSPSetTolerances(ksp, 1.0e-8_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
@@ -146,7 +118,6 @@ contains
     PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
     stats%ksp_type = ksp_type
     stats%pc_type = pc_type
-    if (pc_type == PCSHELL) stats%pc_type = 'single-bead blocks'
     stats%relative_tolerance = rtol
     do motion = 1, 6
       PetscCallA(VecDestroy(rhs(motion), ierr))
@@ -156,41 +127,6 @@ contains
     PetscCallA(VecDestroy(template, ierr))
     PetscCallA(KSPDestroy(ksp, ierr))
   end subroutine rigid_body_friction
-
-  !> PCSHELL apply: y_i = S^-1 x_i on every local bead.
-  subroutine apply_bead_block_preconditioner(pc, x, y, ierr)
-    PC :: pc
-    Vec :: x, y
-    PetscErrorCode :: ierr
-    type(bead_block_preconditioner_t), pointer :: context
-    PetscScalar, pointer :: in(:), out(:)
-    integer :: nb, i
-    PetscCall(PCShellGetContext(pc, context, ierr))
-    nb = context%block_size
-    PetscCall(VecGetArrayReadF90(x, in, ierr))
-    PetscCall(VecGetArrayF90(y, out, ierr))
-    do i = 1, size(in) / nb
-      out(nb * (i - 1) + 1:nb * i) = matmul(context%inverse_block, in(nb * (i - 1) + 1:nb * i))
-    end do
-    PetscCall(VecRestoreArrayF90(y, out, ierr))
-    PetscCall(VecRestoreArrayReadF90(x, in, ierr))
-    ierr = 0
-  end subroutine apply_bead_block_preconditioner
-
-  !> Inverse of a small symmetric positive definite matrix (LAPACK Cholesky).
-  function inverse_spd(matrix) result(inverse)
-    real(dp), intent(in) :: matrix(:, :)
-    real(dp) :: inverse(size(matrix, 1), size(matrix, 1))
-    integer :: n, info, i
-    n = size(matrix, 1)
-    inverse = matrix
-    call dpotrf('L', n, inverse, n, info)
-    if (info == 0) call dpotri('L', n, inverse, n, info)
-    if (info /= 0) error stop 'beadmob: the single-bead block is not positive definite'
-    do i = 1, n
-      inverse(i, i + 1:n) = inverse(i + 1:n, i)
-    end do
-  end function inverse_spd
 
   pure function rigid_velocity(motion, arm) result(velocity)
     integer, intent(in) :: motion
