@@ -65,12 +65,14 @@ contains
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
       settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
+      settings%bead_forces = config%hydrodynamics%bead_forces
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
-      call compute_mobility(hydro%multipole_friction, frame%axes, model%reference_length, mobility, err)
+      call compute_mobility(hydro%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, &
+                            err)
       if (err%failed) return   ! same replicated friction on every rank: same outcome
       hydro%multipole_coefficients = mobility%coefficients
-      call compute_mobility(hydro%friction, frame%axes, model%reference_length, mobility, err)
+      call compute_mobility(hydro%friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, err)
       if (err%failed) return
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
     else

@@ -10,7 +10,7 @@ module beadmob_mobility
   use beadmob_strings, only: str
   implicit none
   private
-  public :: mobility_result_t, compute_mobility
+  public :: mobility_result_t, compute_mobility, shifted
 
   real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -23,6 +23,11 @@ module beadmob_mobility
     real(dp) :: coefficients(5) = 0.0_dp         ! mu11, mu22, mu33, mu42, mu51
     real(dp) :: off_pattern = 0.0_dp             ! largest entry outside the paper's pattern, relative
     logical :: z_reversed = .false.              ! body y and z turned by pi about x for mu51 < 0
+    !> Centre of mobility (model coordinates): the point about which the rotation-translation
+    !> coupling is symmetric (Happel & Brenner 1965, sec. 5-5, for the analogous centre of
+    !> reaction), and the mobility about it (model axes).
+    real(dp) :: centre_of_mobility(3) = 0.0_dp
+    real(dp) :: mobility_at_centre(6, 6) = 0.0_dp
   end type mobility_result_t
 
   interface
@@ -36,8 +41,9 @@ module beadmob_mobility
 
 contains
 
-  subroutine compute_mobility(friction, axes, reference_length, result, err)
-    real(dp), intent(in) :: friction(6, 6), axes(3, 3), reference_length
+  !> friction about reference_point (model coordinates); axes: columns = body axes.
+  subroutine compute_mobility(friction, reference_point, axes, reference_length, result, err)
+    real(dp), intent(in) :: friction(6, 6), reference_point(3), axes(3, 3), reference_length
     type(mobility_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
     real(dp) :: work(6, 6), rotation(3, 3), tt(3, 3), rt(3, 3), pattern_max, other_max
@@ -55,6 +61,9 @@ contains
       call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
       return
     end if
+
+    call centre_of_mobility(result%mobility, reference_point, result%centre_of_mobility, result%mobility_at_centre, err)
+    if (err%failed) return
 
     ! v_body = R v with R = axes^T; blocks transform as R M R^T.
     rotation = transpose(axes)
@@ -76,6 +85,57 @@ contains
     other_max = max(maxval(abs(tt)), maxval(abs(rt)))
     result%off_pattern = other_max / pattern_max
   end subroutine compute_mobility
+
+  !> Moving the reference point by d: M(P) = A M A^T, A = [[I, -[d]x], [0, I]] (U_P = U_O + Omega x d,
+  !> T_O = T_P + d x F), so the coupling becomes M_rt + M_rr [d]x. The centre of mobility makes it
+  !> symmetric: three linear equations for d (the axial vector of the antisymmetric part = 0).
+  subroutine centre_of_mobility(mobility, reference_point, centre, moved, err)
+    real(dp), intent(in) :: mobility(6, 6), reference_point(3)
+    real(dp), intent(out) :: centre(3), moved(6, 6)
+    type(error_t), intent(inout) :: err
+    real(dp) :: system(3, 3), rhs(3, 1), unit(3), d(3)
+    integer :: k, pivots(3), info
+    do k = 1, 3
+      unit = 0.0_dp
+      unit(k) = 1.0_dp
+      system(:, k) = axial(matmul(mobility(4:6, 4:6), cross_matrix(unit)))
+    end do
+    rhs(:, 1) = -axial(mobility(4:6, 1:3))
+    call dgesv(3, 1, system, 3, pivots, rhs, 3, info)
+    if (info /= 0) then
+      call raise(err, 'the centre of mobility is undefined (singular rotational mobility, LAPACK info = ' // str(info) // ')')
+      return
+    end if
+    d = rhs(:, 1)
+    centre = reference_point + d
+    moved = shifted(mobility, d)
+  end subroutine centre_of_mobility
+
+  pure function shifted(mobility, d) result(moved)
+    real(dp), intent(in) :: mobility(6, 6), d(3)
+    real(dp) :: moved(6, 6), a(6, 6)
+    integer :: k
+    a = 0.0_dp
+    do k = 1, 6
+      a(k, k) = 1.0_dp
+    end do
+    a(1:3, 4:6) = -cross_matrix(d)
+    moved = matmul(a, matmul(mobility, transpose(a)))
+  end function shifted
+
+  !> [v]x w = v x w
+  pure function cross_matrix(v) result(m)
+    real(dp), intent(in) :: v(3)
+    real(dp) :: m(3, 3)
+    m = reshape([0.0_dp, v(3), -v(2), -v(3), 0.0_dp, v(1), v(2), -v(1), 0.0_dp], [3, 3])
+  end function cross_matrix
+
+  !> Axial vector of the antisymmetric part of m.
+  pure function axial(m) result(v)
+    real(dp), intent(in) :: m(3, 3)
+    real(dp) :: v(3)
+    v = 0.5_dp * [m(3, 2) - m(2, 3), m(1, 3) - m(3, 1), m(2, 1) - m(1, 2)]
+  end function axial
 
   pure function in_frame(matrix, rotation) result(rotated)
     real(dp), intent(in) :: matrix(6, 6), rotation(3, 3)

@@ -52,6 +52,8 @@ module beadmob_input_config
     logical :: lubrication = .false.
     !> Pairs of beads with centre distance <= cutoff (units of d) get the lubrication correction.
     real(dp) :: lubrication_cutoff = 2.0_dp
+    !> Write the force and torque of every bead for every rigid motion (large: 36 numbers a bead).
+    logical :: bead_forces = .false.
   end type hydrodynamics_config_t
 
   type :: run_config_t
@@ -143,10 +145,10 @@ contains
     type(hydrodynamics_config_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, status
-    logical :: lubrication
+    logical :: lubrication, bead_forces
     real(dp) :: lubrication_cutoff
     character(len=512) :: message
-    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff
+    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -154,6 +156,7 @@ contains
     potential_order = hydro%potential_order
     lubrication = hydro%lubrication
     lubrication_cutoff = hydro%lubrication_cutoff
+    bead_forces = hydro%bead_forces
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -176,6 +179,7 @@ contains
     hydro%potential_order = potential_order
     hydro%lubrication = lubrication
     hydro%lubrication_cutoff = lubrication_cutoff
+    hydro%bead_forces = bead_forces
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -263,6 +267,7 @@ contains
       '  potential_order = ' // str(config%hydrodynamics%potential_order) // new_line('a') // &
       '  lubrication = ' // merge('.true. ', '.false.', config%hydrodynamics%lubrication) // new_line('a') // &
       '  lubrication_cutoff = ' // str(config%hydrodynamics%lubrication_cutoff) // new_line('a') // &
+      '  bead_forces = ' // merge('.true. ', '.false.', config%hydrodynamics%bead_forces) // new_line('a') // &
       '/' // new_line('a')
   contains
     subroutine add_real(name, value)

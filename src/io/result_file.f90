@@ -62,7 +62,7 @@ contains
     call write_shape(file_id, model, err)
     call write_geometry(ctx, file_id, model, frame, err)
     if (present(mobility) .and. present(solves)) &
-      call write_hydrodynamics(ctx, file_id, config, mobility, solves, err)
+      call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, solves, err)
     call h5_close_file(file_id, err)
     call agree_on_error(ctx, err)
     call MPI_Barrier(ctx%comm, ierr)
@@ -139,15 +139,17 @@ contains
     call h5_close_group(group, err)
   end subroutine write_geometry
 
-  subroutine write_hydrodynamics(ctx, file_id, config, mobility, hydro, err)
+  subroutine write_hydrodynamics(ctx, file_id, config, n_beads, mobility, hydro, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: file_id
+    integer(i8), intent(in) :: n_beads
     type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
     type(friction_result_t), intent(in) :: hydro
     type(error_t), intent(inout) :: err
     integer(hid_t) :: group
     integer :: k
+    integer(i8) :: first, count
     character(len=:), allocatable :: names
     call h5_create_group(file_id, 'hydrodynamics', group, err)
     call write_attribute(group, 'multipole_order', config%hydrodynamics%multipole_order, err)
@@ -173,6 +175,8 @@ contains
     call write_replicated_dataset(ctx, group, 'body_axes', mobility%body_axes, err)
     call write_replicated_dataset(ctx, group, 'body_mobility', transpose(mobility%body_mobility), err)
     call write_replicated_dataset(ctx, group, 'coefficients', mobility%coefficients, err)
+    call write_replicated_dataset(ctx, group, 'centre_of_mobility', mobility%centre_of_mobility, err)
+    call write_replicated_dataset(ctx, group, 'mobility_at_centre_of_mobility', transpose(mobility%mobility_at_centre), err)
     names = motion_names(1)
     do k = 2, 6
       names = names // ' ' // motion_names(k)
@@ -207,6 +211,11 @@ contains
         call write_replicated_dataset(ctx, group, 'lubrication_distances', hydro%lubrication_table%distances, err)
         call write_replicated_dataset(ctx, group, 'lubrication_corrections', hydro%lubrication_table%correction, err)
       end if
+    end if
+    if (allocated(hydro%bead_forces)) then
+      ! Same bead partition as the solve; C-order readers see (N, 36): bead, 6 (motion - 1) + component.
+      call block_range(ctx, n_beads, first, count)
+      call write_distributed_columns(group, 'bead_forces', hydro%bead_forces, first, n_beads, err)
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics

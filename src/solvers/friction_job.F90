@@ -33,6 +33,7 @@ module beadmob_friction_job
     character(len=16) :: operator_name = 'auto'
     !> Pairs within this distance (d) enter the near-field preconditioning matrix.
     real(dp) :: near_field_radius = 0.0_dp
+    logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
   end type friction_settings_t
 
   type :: friction_result_t
@@ -50,6 +51,8 @@ module beadmob_friction_job
     integer :: lubrication_reference_order = 0
     type(lubrication_table_t) :: lubrication_table
     real(dp) :: seconds(size(phase_names)) = 0.0_dp   ! wall time per phase (max over ranks)
+    !> With settings%bead_forces: (36, this rank's beads), see rigid_body_friction.
+    real(dp), allocatable :: bead_forces(:, :)
   end type friction_result_t
 
 contains
@@ -105,8 +108,14 @@ contains
     call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
     call mark(2)
 
-    call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                             result%multipole_friction, result%solves)
+    if (settings%bead_forces) then
+      allocate (result%bead_forces(36, count))
+      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
+                               result%multipole_friction, result%solves, result%bead_forces)
+    else
+      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
+                               result%multipole_friction, result%solves)
+    end if
     PetscCallA(MatDestroy(near_field, petsc_ierr))
     if (result%operator_name == 'fft') then
       call destroy_fft_operator(fft_op, matrix)

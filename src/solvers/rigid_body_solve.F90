@@ -39,14 +39,17 @@ contains
   !> Collective. `centres` holds all beads; this rank owns beads first..first+n_local-1, with
   !> nb = size(projection, 1) unknowns each. projection(:, m): the basis projection of unit motion
   !> m of one bead about its centre (its transpose gives force and torque from the multipoles).
+  !> bead_forces, when present (36 x n_local): column i holds, for motion m = 1..6, the force and
+  !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
-                                 reference_point, friction, stats)
+                                 reference_point, friction, stats, bead_forces)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
     integer(i8), intent(in) :: first_bead, n_local
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
+    real(dp), intent(out), optional :: bead_forces(:, :)
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -100,6 +103,13 @@ contains
       stats%iterations(motion) = int(iterations)
       stats%converged_reason(motion) = int(reason)
       stats%true_relative_residual(motion) = residual_norm / rhs_norm
+      if (present(bead_forces)) then
+        PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
+        do i = 1, n_local
+          bead_forces(6 * motion - 5:6 * motion, i) = matmul(values(nb * (i - 1) + 1:nb * i), projection)
+        end do
+        PetscCallA(VecRestoreArrayReadF90(solution(motion), values, ierr))
+      end if
     end do
 
     ! zeta_mn = c_m . q_n + q_m . r_n (the force and torque of solution n projected on motion m).

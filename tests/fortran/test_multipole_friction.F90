@@ -9,7 +9,9 @@
 !>    value 0.6451 (Happel & Brenner 1965, sec. 6.3);
 !>  - symmetry and invariance: zeta symmetric, a cube isotropic without translation-rotation
 !>    coupling, a 90-degree rotation permutes zeta, a z mirror flips mu42 and mu51, translation
-!>    changes nothing (exact properties of Stokes flow).
+!>    changes nothing (exact properties of Stokes flow);
+!>  - centre of mobility: the coupling about it is symmetric, it moves with the body, and for a
+!>    body with two mirror planes it lies on their intersection line (symmetry).
 program test_multipole_friction
 #include "petsc/finclude/petscksp.h"
   use petscksp
@@ -22,6 +24,7 @@ program test_multipole_friction
   use beadmob_friction_job, only: friction_settings_t, friction_result_t, friction_of_model
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_dense_friction, only: dense_friction, rigid_motions
+  use beadmob_mobility, only: mobility_result_t, compute_mobility
   implicit none
   type(test_suite_t) :: suite
   type(run_context_t) :: ctx
@@ -85,6 +88,7 @@ program test_multipole_friction
              'touching doublet, L = 4 without lubrication: within 1e-3 of Stimson-Jeffery')
 
   call check_symmetries()
+  call check_centre_of_mobility()
 
   call finish_tests(suite)
   PetscCallA(PetscFinalize(ierr))
@@ -214,6 +218,32 @@ contains
     call check(suite, max_relative(friction_of(moved, 2, .true.), inverse6(turned)) < 1.0e-10_dp, &
                'translating the body changes nothing (about the centre of mass)')
   end subroutine check_symmetries
+
+  subroutine check_centre_of_mobility()
+    real(dp) :: shape(3, 6), pyramid(3, 6), identity(3, 3), coupling(3, 3), moved(3, 6), shift(3)
+    type(mobility_result_t) :: result, result_moved
+    type(error_t) :: err
+    integer :: k
+    identity = 0.0_dp
+    do k = 1, 3
+      identity(k, k) = 1.0_dp
+    end do
+    shape = reshape([0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1], [3, 6]) * 1.0_dp
+    call compute_mobility(friction_of(shape, 2, .false.), sum(shape, dim=2) / 6, identity, 1.0_dp, result, err)
+    coupling = result%mobility_at_centre(4:6, 1:3)
+    call check(suite, .not. err%failed .and. maxval(abs(coupling - transpose(coupling))) < 1.0e-12_dp * &
+               maxval(abs(result%mobility)), 'coupling symmetric about the centre of mobility')
+    shift = [3.0_dp, -2.0_dp, 5.0_dp]
+    moved = shape + spread(shift, 2, 6)
+    call compute_mobility(friction_of(moved, 2, .false.), sum(moved, dim=2) / 6, identity, 1.0_dp, result_moved, err)
+    call check(suite, maxval(abs(result_moved%centre_of_mobility - result%centre_of_mobility - shift)) < 1.0e-9_dp, &
+               'the centre of mobility moves with the body')
+    ! Mirror planes x = 0 and y = 0: a plus-shaped layer of five beads with one bead on top.
+    pyramid = reshape([-1, 0, 0, 1, 0, 0, 0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1], [3, 6]) * 1.0_dp
+    call compute_mobility(friction_of(pyramid, 2, .false.), sum(pyramid, dim=2) / 6, identity, 1.0_dp, result, err)
+    call check(suite, maxval(abs(result%centre_of_mobility(1:2))) < 1.0e-10_dp, &
+               'two mirror planes: the centre of mobility lies on their common axis')
+  end subroutine check_centre_of_mobility
 
   function inverse6(matrix) result(inverse)
     real(dp), intent(in) :: matrix(6, 6)
