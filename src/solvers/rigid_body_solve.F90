@@ -72,7 +72,7 @@ contains
     PetscCallA(KSPGetPC(ksp, pc, ierr))
     PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
     PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
-    PetscCallA(KSPSetTolerances(ksp, 1.0e-8_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCallA(KSPSetTolerances(ksp, 1.0e-6_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
