@@ -47,21 +47,9 @@ contains
 
     basis%order = order
     basis%potential_order = potential_order
-    count = 0
-    do n = 1, order
-      do sigma = 0, 2
-        if (sigma == 2 .and. n > potential_order) cycle
-        do k = -n, n
-          if (present(azimuthal_orders)) then
-            if (all(azimuthal_orders /= abs(k))) cycle
-          end if
-          count = count + 1
-        end do
-      end do
-    end do
-    basis%size = count
-    allocate (basis%degree(count), basis%family(count), basis%harmonic(count), basis%inverse_norm(count), &
-              basis%field_coefficients(3, count))
+    ! (n, sigma, k) in the order n, sigma, k; at most 3 (2n + 1) per degree.
+    allocate (basis%degree(3 * order * (order + 2)), basis%family(3 * order * (order + 2)), &
+              basis%harmonic(3 * order * (order + 2)))
     count = 0
     do n = 1, order
       do sigma = 0, 2
@@ -77,6 +65,11 @@ contains
         end do
       end do
     end do
+    basis%size = count
+    basis%degree = basis%degree(1:count)
+    basis%family = basis%family(1:count)
+    basis%harmonic = basis%harmonic(1:count)
+    allocate (basis%inverse_norm(count), basis%field_coefficients(3, count))
 
     ! Norms by a rule exact for the degree-2(L+1) integrands |phi|^2.
     basis%inverse_norm = 1.0_dp

@@ -14,39 +14,40 @@ contains
   pure subroutine gauss_legendre(n, nodes, weights)
     integer, intent(in) :: n
     real(dp), intent(out) :: nodes(n), weights(n)
-    real(dp) :: t, p0, p1, p2, derivative, step
-    integer :: i, j, iteration
+    real(dp) :: t, value, derivative, step
+    integer :: i, iteration
     do i = 1, (n + 1) / 2
       t = cos(pi * (i - 0.25_dp) / (n + 0.5_dp))
       do iteration = 1, 100
-        p0 = 1.0_dp
-        p1 = t
-        do j = 2, n
-          p2 = ((2 * j - 1) * t * p1 - (j - 1) * p0) / j
-          p0 = p1
-          p1 = p2
-        end do
-        if (n == 1) p0 = 1.0_dp
-        derivative = n * (t * p1 - p0) / (t * t - 1.0_dp)
-        step = p1 / derivative
+        call legendre(n, t, value, derivative)
+        step = value / derivative
         t = t - step
         if (abs(step) < 1.0e-16_dp) exit
       end do
-      p0 = 1.0_dp
-      p1 = t
-      do j = 2, n
-        p2 = ((2 * j - 1) * t * p1 - (j - 1) * p0) / j
-        p0 = p1
-        p1 = p2
-      end do
-      if (n == 1) p0 = 1.0_dp
-      derivative = n * (t * p1 - p0) / (t * t - 1.0_dp)
+      call legendre(n, t, value, derivative)
       nodes(i) = -t
       nodes(n + 1 - i) = t
       weights(i) = 2.0_dp / ((1.0_dp - t * t) * derivative**2)
       weights(n + 1 - i) = weights(i)
     end do
   end subroutine gauss_legendre
+
+  !> P_n(t) and P_n'(t) by the three-term recurrence.
+  pure subroutine legendre(n, t, value, derivative)
+    integer, intent(in) :: n
+    real(dp), intent(in) :: t
+    real(dp), intent(out) :: value, derivative
+    real(dp) :: previous, next
+    integer :: j
+    previous = 1.0_dp
+    value = t
+    do j = 2, n
+      next = ((2 * j - 1) * t * value - (j - 1) * previous) / j
+      previous = value
+      value = next
+    end do
+    derivative = n * (t * value - previous) / (t * t - 1.0_dp)
+  end subroutine legendre
 
   !> Points (relative to the centre, 3 x n_theta*n_phi) and weights of a rule on the sphere of
   !> radius `radius` whose polar axis is `axis` (need not be normalised).
