@@ -14,7 +14,7 @@ import sys
 import h5py
 import numpy as np
 
-RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds"}
+RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes"}
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction"}
 SOLVER_RESULTS = {"friction", "multipole_friction", "mobility", "body_mobility", "coefficients",

@@ -98,6 +98,7 @@ contains
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
+    write (*, '(a, f0.1, a)') '  peak memory (largest rank): ', hydro%peak_memory_bytes / 2.0_dp**20, ' MiB'
     write (*, '(a, *(a, f0.2, :, ","))') '  wall time (s):', (' ' // trim(phase_names(phase)) // ' ', &
       hydro%seconds(phase), phase = 1, size(phase_names))
     if (any(hydro%solves%converged_reason <= 0)) write (error_unit, '(a, 6i4, a)') &

@@ -202,6 +202,7 @@ contains
     end do
     call write_attribute(group, 'phase_names', names, err)
     call write_attribute(group, 'phase_seconds', hydro%seconds, err)
+    call write_attribute(group, 'peak_memory_bytes', hydro%peak_memory_bytes, err)
     if (config%hydrodynamics%lubrication) then
       call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
       call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)

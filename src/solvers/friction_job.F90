@@ -14,6 +14,7 @@ module beadmob_friction_job
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_near_field_matrix, only: assemble_near_field
+  use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
   implicit none
@@ -51,6 +52,7 @@ module beadmob_friction_job
     integer :: lubrication_reference_order = 0
     type(lubrication_table_t) :: lubrication_table
     real(dp) :: seconds(size(phase_names)) = 0.0_dp   ! wall time per phase (max over ranks)
+    real(dp) :: peak_memory_bytes = 0.0_dp   ! peak resident set size, max over ranks
     !> With settings%bead_forces: (36, this rank's beads), see rigid_body_friction.
     real(dp), allocatable :: bead_forces(:, :)
   end type friction_result_t
@@ -71,22 +73,34 @@ contains
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix, near_field
     integer(i8) :: first, count, local_pairs8
-    integer :: ierr, local_pairs
-    PetscErrorCode :: petsc_ierr
+    integer :: local_pairs, phase
+    PetscErrorCode :: ierr   ! also the MPI error code (both default integers)
+    PetscLogStage :: stages(size(phase_names) - 1)
+    character(len=32) :: stage_name
 
+    ! One -log_view stage per phase (the last phase name, 'total', is the sum).
+    do phase = 1, size(stages)
+      stage_name = 'beadmob ' // phase_names(phase)
+      PetscCallA(PetscLogStageRegister(stage_name, stages(phase), ierr))
+    end do
     start = MPI_Wtime()
+    PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%order, settings%potential_order)
     result%unknowns_per_bead = basis%size
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
     call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err)
-    if (err%failed) return   ! same input on every rank: same outcome
+    if (err%failed) then   ! same input on every rank: same outcome
+      PetscCallA(PetscLogStagePop(ierr))
+      return
+    end if
     if (result%operator_name == 'fft') then
       call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err)
       call agree_on_error(ctx, err)
       if (err%failed) then
         call destroy_fft_operator(fft_op, matrix)
+        PetscCallA(PetscLogStagePop(ierr))
         return
       end if
       result%on_lattice = fft_op%table%on_lattice
@@ -95,7 +109,10 @@ contains
     else
       call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
       call agree_on_error(ctx, err)
-      if (err%failed) return
+      if (err%failed) then
+        PetscCallA(PetscLogStagePop(ierr))
+        return
+      end if
       result%on_lattice = direct_op%table%on_lattice
       result%computed_blocks = direct_op%table%computed_blocks
       self = direct_op%self_block
@@ -116,7 +133,7 @@ contains
       call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
                                result%multipole_friction, result%solves)
     end if
-    PetscCallA(MatDestroy(near_field, petsc_ierr))
+    PetscCallA(MatDestroy(near_field, ierr))
     if (result%operator_name == 'fft') then
       call destroy_fft_operator(fft_op, matrix)
     else
@@ -130,7 +147,10 @@ contains
       call make_lubrication_table(settings%order, settings%potential_order, centres, &
                                   settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), result%lubrication_table, err)
       call agree_on_error(ctx, err)
-      if (err%failed) return
+      if (err%failed) then
+        PetscCallA(PetscLogStagePop(ierr))
+        return
+      end if
       local = 0.0_dp
       call add_lubrication(result%lubrication_table, centres, reference_point, int(first), int(first + count - 1), &
                            local, local_pairs)
@@ -142,13 +162,18 @@ contains
     call mark(4)
     result%seconds(5) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    call MPI_Allreduce(peak_resident_bytes(), result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
 
-    !> seconds(phase) = time since the end of the previous phase.
+    !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
     subroutine mark(phase)
       integer, intent(in) :: phase
       result%seconds(phase) = MPI_Wtime() - start - sum(result%seconds(1:phase - 1))
+      PetscCallA(PetscLogStagePop(ierr))
+      if (phase < size(stages)) then
+        PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
+      end if
     end subroutine mark
   end subroutine friction_of_model
 
