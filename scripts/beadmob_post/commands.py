@@ -25,7 +25,7 @@ from beadmob_post.classify import (
     physical_scales,
     physical_times,
 )
-from beadmob_post.mobility import Coefficients, compute_coefficients
+from beadmob_post.mobility import FRICTION_CHOICES, Coefficients, compute_coefficients
 from beadmob_post.paper import TAB_MOB_NUM, PaperBeadModel, paper_counterpart, paper_row
 from beadmob_post.results import load_result
 
@@ -119,6 +119,7 @@ def add_analysis_commands(commands) -> None:
         _table_options(p)
         p.add_argument("--allow-unconverged", action="store_true",
                        help="accept files whose solves beadmob flagged as not converged")
+        _friction_option(p)
         if name == "compare":
             p.add_argument("--plot", type=Path, help="also draw the coefficient bars (.png/.pdf)")
         p.set_defaults(handler=handler)
@@ -128,6 +129,7 @@ def add_analysis_commands(commands) -> None:
     p.add_argument("files", type=Path, nargs="+", metavar="FILE", help="beadmob result files")
     p.add_argument("-o", "--output", type=Path, required=True, help="figure (.png or .pdf)")
     p.add_argument("--allow-unconverged", action="store_true", help=argparse.SUPPRESS)
+    _friction_option(p)
     p.set_defaults(handler=run_plot_coefficients)
 
     p = commands.add_parser(
@@ -151,6 +153,7 @@ def add_analysis_commands(commands) -> None:
     p.add_argument("-o", "--output-dir", type=Path, required=True, metavar="DIR")
     p.add_argument("--no-beads", action="store_true", help="skip the bead pictures")
     p.add_argument("--allow-unconverged", action="store_true", help=argparse.SUPPRESS)
+    _friction_option(p)
     p.set_defaults(handler=run_report)
 
 
@@ -171,6 +174,15 @@ def _hydro_options(parser) -> None:
                         help="reference length L in bead diameters (default: the file's)")
     parser.add_argument("--allow-unconverged", action="store_true",
                         help="use a file whose solves beadmob flagged as not converged")
+    _friction_option(parser)
+
+
+def _friction_option(parser) -> None:
+    parser.add_argument(
+        "--friction", choices=FRICTION_CHOICES, default="default",
+        help="which friction of /hydrodynamics: 'default' = friction (with the lubrication "
+        "correction when the run had it on), 'multipole' = multipole_friction (the order-L "
+        "friction alone, without the lubrication correction)")
 
 
 def _table_options(parser) -> None:
@@ -235,7 +247,8 @@ def _coefficients(arguments) -> Coefficients:
     if arguments.reference_length is not None and not arguments.reference_length > 0:
         raise CommandError(f"--reference-length must be positive, got {arguments.reference_length}")
     return compute_coefficients(load_result(arguments.file), arguments.reference_length,
-                                allow_unconverged=arguments.allow_unconverged)
+                                allow_unconverged=arguments.allow_unconverged,
+                                friction=arguments.friction)
 
 
 def paper_coefficients(row: PaperBeadModel) -> Coefficients:
@@ -283,6 +296,7 @@ def coefficients_summary(c: Coefficients) -> dict[str, Any]:
              "relative": e.relative} for e in c.off_pattern_entries],
         "mirror_planes": c.mirror_planes, "paper_class": c.paper_class,
         "multipole_order": c.multipole_order, "lubrication": c.lubrication,
+        "friction": c.friction, "run_lubrication": c.run_lubrication,
         "all_converged": c.all_converged,
         "dimensionless_body_mobility": c.dimensionless_body_mobility,
     }
@@ -297,7 +311,10 @@ def run_coefficients(arguments, out: TextIO) -> int:
              f"shape:            {c.shape}, N = {c.n_beads}, L = {c.reference_length:g} d",
              "method:           multipole order "
              f"{c.multipole_order if c.multipole_order is not None else '?'}, lubrication "
-             f"{'?' if c.lubrication is None else ('yes' if c.lubrication else 'no')}"]
+             f"{'?' if c.lubrication is None else ('yes' if c.lubrication else 'no')}"
+             + (" (/hydrodynamics/multipole_friction: order-L friction"
+                + ("; the run's lubrication correction left out)" if c.run_lubrication else ")")
+                if c.friction == "multipole" else "")]
     if c.all_converged is False:
         lines.append("WARNING:          beadmob flagged the solves as not converged")
     for name, value in c.as_dict().items():
@@ -489,7 +506,8 @@ def _emit_table(arguments, render) -> str:
 def run_table(arguments, out: TextIO) -> int:
     from beadmob_post.tables import collect, format_table
 
-    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged,
+                   friction=arguments.friction)
     out.write(_emit_table(arguments, lambda fmt: format_table(rows, fmt)))
     return 0
 
@@ -497,7 +515,8 @@ def run_table(arguments, out: TextIO) -> int:
 def run_compare(arguments, out: TextIO) -> int:
     from beadmob_post.tables import collect, comparison, format_comparison
 
-    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged,
+                   friction=arguments.friction)
     if not comparison(rows):
         raise CommandError("none of the files is one of the paper's seven bead models (cone, "
                            "crescent_moon, arrowhead, ring_1mm ... ring_4mm with the paper's "
@@ -513,7 +532,8 @@ def run_plot_coefficients(arguments, out: TextIO) -> int:
     from beadmob_post.plots import coefficient_bars, save
     from beadmob_post.tables import collect
 
-    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged,
+                   friction=arguments.friction)
     out.write(f"wrote {save(coefficient_bars(rows), arguments.output)}\n")
     return 0
 
@@ -533,7 +553,8 @@ def run_report(arguments, out: TextIO) -> int:
     from beadmob_post.plots import coefficient_bars, write_both
     from beadmob_post.tables import collect, comparison, format_comparison, format_table
 
-    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged)
+    rows = collect(arguments.files, allow_unconverged=arguments.allow_unconverged,
+                   friction=arguments.friction)
     directory = arguments.output_dir
     directory.mkdir(parents=True, exist_ok=True)
     written = []

@@ -31,6 +31,11 @@ PAPER_MIRROR_PLANES = (1.0, 1.0, 0.0)
 
 _AXES = "xyz"
 
+#: Which friction of /hydrodynamics the coefficients come from (option ``--friction``):
+#: ``default`` = ``friction`` (with the lubrication correction when the run had it on),
+#: ``multipole`` = ``multipole_friction`` (the order-L friction alone, no lubrication correction).
+FRICTION_CHOICES = ("default", "multipole")
+
 
 class MobilityError(ResultFileError):
     """The hydrodynamics of a result file cannot be used (message names file and problem)."""
@@ -75,9 +80,15 @@ class Coefficients:
     mirror_planes: tuple[float, ...] | None
     paper_class: bool | None
     multipole_order: int | None
+    #: whether the coefficients include the lubrication correction (False with
+    #: ``friction="multipole"`` even when the run had it on)
     lubrication: bool | None
     all_converged: bool | None
     extra: dict = field(default_factory=dict)
+    #: the friction used: "default" (/hydrodynamics/friction) or "multipole" (multipole_friction)
+    friction: str = "default"
+    #: whether the run had the lubrication correction on (/hydrodynamics attribute lubrication)
+    run_lubrication: bool | None = None
 
     def values(self) -> tuple[float, float, float, float, float]:
         return (self.mu11, self.mu22, self.mu33, self.mu42, self.mu51)
@@ -135,15 +146,25 @@ def dimensionless(body_mobility: np.ndarray, reference_length: float) -> np.ndar
     return body_mobility * scale
 
 
-def checked_mobility(result: BeadResult, allow_unconverged: bool = False) -> np.ndarray:
+def checked_mobility(
+    result: BeadResult, allow_unconverged: bool = False, friction: str = "default"
+) -> np.ndarray:
     """The 6x6 mobility about the centre of mass, in input coordinates, after the checks.
 
-    Raises :class:`MobilityError` when the file has no /hydrodynamics, beadmob flagged a solve
-    as not converged (unless ``allow_unconverged``), the friction is singular or not positive
-    definite, or the stored mobility is not its inverse.
+    ``friction`` chooses the matrix it is the inverse of: ``"default"`` is
+    /hydrodynamics/friction (with the lubrication correction when the run had it on; the stored
+    mobility is checked against it), ``"multipole"`` /hydrodynamics/multipole_friction (the
+    order-L friction alone). Raises :class:`MobilityError` when the file has no /hydrodynamics
+    (or no multipole_friction when asked for), beadmob flagged a solve as not converged (unless
+    ``allow_unconverged``), the friction is singular or not positive definite, or the stored
+    mobility is not its inverse.
     """
     path = result.path
     hydro = result.hydrodynamics
+    if friction not in FRICTION_CHOICES:
+        raise MobilityError(
+            f"{path}: unknown friction {friction!r}; use one of {', '.join(FRICTION_CHOICES)}"
+        )
     if hydro is None:
         raise MobilityError(
             f"{path}: no /hydrodynamics in the file (run beadmob with an &hydrodynamics group)"
@@ -156,32 +177,42 @@ def checked_mobility(result: BeadResult, allow_unconverged: bool = False) -> np.
             f"(/hydrodynamics all_converged = 0{detail}); rerun with a tighter or longer "
             "solve, or pass --allow-unconverged to look at it anyway"
         )
-    friction = hydro.friction
-    condition = np.linalg.cond(friction)
+    if friction == "multipole":
+        if hydro.multipole_friction is None:
+            raise MobilityError(
+                f"{path}: no /hydrodynamics/multipole_friction (the order-L friction without "
+                "the lubrication correction) in the file; it was written by an older beadmob: "
+                "use the default friction or rerun"
+            )
+        matrix, name = hydro.multipole_friction, "/hydrodynamics/multipole_friction"
+    else:
+        matrix, name = hydro.friction, "the 6x6 friction matrix"
+    condition = np.linalg.cond(matrix)
     if not np.isfinite(condition) or condition > SINGULAR_CONDITION:
         raise MobilityError(
-            f"{path}: the 6x6 friction matrix is singular (condition number {condition:.3g}); "
+            f"{path}: {name} is singular (condition number {condition:.3g}); "
             "no mobility exists for it"
         )
-    symmetric = 0.5 * (friction + friction.T)
+    symmetric = 0.5 * (matrix + matrix.T)
     if np.linalg.eigvalsh(symmetric).min() <= 0.0:
         raise MobilityError(
-            f"{path}: the 6x6 friction matrix is not positive definite, so it is not the "
+            f"{path}: {name} is not positive definite, so it is not the "
             "friction of a rigid body"
         )
-    mobility = hydro.mobility
+    # The stored mobility is the inverse of /hydrodynamics/friction only.
+    mobility = hydro.mobility if friction == "default" else None
     if mobility is None:
-        mobility = np.linalg.inv(friction)
+        mobility = np.linalg.inv(matrix)
     else:
-        mismatch = np.abs(mobility @ friction - np.eye(6)).max()
+        mismatch = np.abs(mobility @ matrix - np.eye(6)).max()
         if mismatch > INVERSE_TOLERANCE:
             raise MobilityError(
                 f"{path}: /hydrodynamics/mobility is not the inverse of the friction "
                 f"(|M Z - I| = {mismatch:.3g})"
             )
     # Reciprocity makes the mobility symmetric; its antisymmetric part is solver error
-    # (beadmob's symmetry_error). Symmetrising also makes the result independent of whether
-    # a writer stored the matrix or its transpose (Fortran vs C order).
+    # (beadmob's symmetry_error, ~1e-16 for the variational friction). Symmetrising also keeps
+    # files of beadmob versions that stored the Fortran matrices transposed readable.
     mobility = 0.5 * (mobility + mobility.T)
     return _about_centre_of_mass(result, mobility)
 
@@ -251,12 +282,15 @@ def compute_coefficients(
     result: BeadResult,
     reference_length: float | None = None,
     allow_unconverged: bool = False,
+    friction: str = "default",
 ) -> Coefficients:
     """The paper's mu11, mu22, mu33, mu42, mu51 of ``result`` (see the module docstring).
 
-    ``reference_length`` (in d) overrides L of the file (/shape reference_length).
+    ``reference_length`` (in d) overrides L of the file (/shape reference_length);
+    ``friction="multipole"`` uses the order-L friction without the lubrication correction
+    (see :func:`checked_mobility`).
     """
-    mobility = checked_mobility(result, allow_unconverged=allow_unconverged)
+    mobility = checked_mobility(result, allow_unconverged=allow_unconverged, friction=friction)
     length = reference_length if reference_length is not None else result.reference_length
     if length is None or not length > 0:
         raise MobilityError(
@@ -286,8 +320,10 @@ def compute_coefficients(
         mirror_planes=mirror,
         paper_class=None if mirror is None else mirror == PAPER_MIRROR_PLANES,
         multipole_order=hydro.multipole_order,
-        lubrication=hydro.lubrication,
+        lubrication=False if friction == "multipole" else hydro.lubrication,
         all_converged=hydro.all_converged,
+        friction=friction,
+        run_lubrication=hydro.lubrication,
     )
 
 

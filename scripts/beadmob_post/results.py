@@ -50,6 +50,15 @@ class Hydrodynamics:
     coefficients: np.ndarray | None
     #: All attributes of ``/hydrodynamics``, decoded (strings as str, arrays as numpy arrays).
     attributes: dict[str, Any] = field(default_factory=dict)
+    #: The order-L friction alone, before the lubrication correction (``multipole_friction``;
+    #: equal to ``friction`` when the run had no lubrication); None in older files.
+    multipole_friction: np.ndarray | None = None
+    #: beadmob's mu11 ... mu51 of ``multipole_friction`` (written when lubrication was on).
+    multipole_coefficients: np.ndarray | None = None
+    #: The point (input coordinates) about which the rotation-translation coupling is
+    #: symmetric, and the mobility about it (input axes); None in older files.
+    centre_of_mobility: np.ndarray | None = None
+    mobility_at_centre_of_mobility: np.ndarray | None = None
 
     @property
     def multipole_order(self) -> int | None:
@@ -230,7 +239,11 @@ def _read_open_file(path: Path, handle: h5py.File) -> BeadResult:
 
 
 def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
-    """Read ``/hydrodynamics``: friction (required), the rest when present."""
+    """Read ``/hydrodynamics``: friction (required), the rest when present.
+
+    The 6x6 matrices are read as stored: beadmob writes them so that C-order readers (h5py)
+    see [row, column] (README, section "Output"). ``bead_forces`` (N x 36) is not read.
+    """
     def optional(name: str, shape: tuple[int, ...]) -> np.ndarray | None:
         if name not in group:
             return None
@@ -244,6 +257,10 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
         body_mobility=optional("body_mobility", (6, 6)),
         coefficients=optional("coefficients", (5,)),
         attributes={name: decode_value(value) for name, value in group.attrs.items()},
+        multipole_friction=optional("multipole_friction", (6, 6)),
+        multipole_coefficients=optional("multipole_coefficients", (5,)),
+        centre_of_mobility=optional("centre_of_mobility", (3,)),
+        mobility_at_centre_of_mobility=optional("mobility_at_centre_of_mobility", (6, 6)),
     )
 
 

@@ -55,19 +55,24 @@ class Row:
         return {**c.as_dict(), "ratio_51_42": c.ratio_51_42, "sum_over_51": c.sum_over_51}
 
 
-def collect(paths: Sequence[str | Path], allow_unconverged: bool = False) -> list[Row]:
-    """Rows of the table, in the order given; every file is checked as by ``coefficients``."""
+def collect(paths: Sequence[str | Path], allow_unconverged: bool = False,
+            friction: str = "default") -> list[Row]:
+    """Rows of the table, in the order given; every file is checked as by ``coefficients``.
+
+    ``friction`` is that of :func:`beadmob_post.mobility.compute_coefficients`.
+    """
     rows = []
     for path in paths:
         result = load_result(path)
-        rows.append(row_of(result, allow_unconverged))
+        rows.append(row_of(result, allow_unconverged, friction))
     return rows
 
 
-def row_of(result: BeadResult, allow_unconverged: bool = False) -> Row:
+def row_of(result: BeadResult, allow_unconverged: bool = False, friction: str = "default") -> Row:
     coefficients = family = None
     if result.hydrodynamics is not None:
-        coefficients = compute_coefficients(result, allow_unconverged=allow_unconverged)
+        coefficients = compute_coefficients(result, allow_unconverged=allow_unconverged,
+                                            friction=friction)
         family = classify(coefficients).family
     paper = paper_counterpart(result.shape_name, result.reference_length)
     return Row(
@@ -96,7 +101,30 @@ def _method(row: Row) -> tuple[str, str, str]:
 
 
 HEADER = ["object", "L/d", "N", *COEFFICIENT_NAMES, "|mu51/mu42|", "(mu51+mu42)/|mu51|",
-          "family", "multipole_order", "lubrication", "off_pattern", "file"]
+          "family", "multipole_order", "lubrication", "off_pattern", "friction", "file"]
+
+#: The /hydrodynamics dataset each ``--friction`` choice reads.
+FRICTION_DATASETS = {"default": "friction", "multipole": "multipole_friction"}
+
+
+def method_note(rows: Sequence[Row]) -> str:
+    """One sentence naming how the coefficients of ``rows`` were computed ('' without any)."""
+    described = []
+    for row in rows:
+        c = row.coefficients
+        if c is None:
+            continue
+        order = "?" if c.multipole_order is None else str(c.multipole_order)
+        if c.friction == "multipole":
+            text = (f"multipole order {order}, the order-L friction /hydrodynamics/multipole_friction"
+                    + (" without the run's lubrication correction" if c.run_lubrication else ""))
+        else:
+            text = (f"multipole order {order}, /hydrodynamics/friction"
+                    + {True: " with the lubrication correction", False: " without lubrication",
+                       None: ""}[c.lubrication])
+        if text not in described:
+            described.append(text)
+    return f"beadmob: {'; '.join(described)}." if described else ""
 
 
 def format_table(rows: Sequence[Row], fmt: str) -> str:
@@ -113,7 +141,9 @@ def format_table(rows: Sequence[Row], fmt: str) -> str:
                 *["" if values[n] is None else repr(values[n]) for n in COEFFICIENT_NAMES],
                 "" if values["ratio_51_42"] is None else repr(values["ratio_51_42"]),
                 "" if values["sum_over_51"] is None else repr(values["sum_over_51"]),
-                row.family or "", *_method(row), row.path,
+                row.family or "", *_method(row),
+                "" if row.coefficients is None else FRICTION_DATASETS[row.coefficients.friction],
+                row.path,
             ])
         return out.getvalue()
     cells = []
@@ -129,13 +159,15 @@ def format_table(rows: Sequence[Row], fmt: str) -> str:
     if fmt == "md":
         header = ["Object", "L/d", "N", *COEFFICIENT_NAMES, "\\|mu51/mu42\\|",
                   "(mu51+mu42)/\\|mu51\\|", "family", "L", "lubrication"]
-        return _markdown(header, cells)
+        note = method_note(rows)
+        return _markdown(header, cells) + (f"\n{note}\n" if note else "")
     if fmt == "tex":
         header = ["Object (shape)", "$L/d$", "Number of beads",
                   *[_LATEX_NAMES[n] for n in COEFFICIENT_NAMES], r"$|\mu_{51}/\mu_{42}|$",
                   r"$\frac{\mu_{51}+\mu_{42}}{|\mu_{51}|}$", "family", "order $L$", "lubrication"]
+        note = method_note(rows)
         caption = ("Dimensionless mobility coefficients (eq.~(matrices) of the settlers paper) "
-                   "computed by beadmob.")
+                   "computed by beadmob." + (" " + _latex_escape(note) if note else ""))
         return _latex(header, cells, caption, "tab:beadmob_coefficients")
     raise ValueError(f"unknown table format {fmt!r}; use one of {', '.join(FORMATS)}")
 
@@ -174,13 +206,14 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
         writer.writerow(["object", "quantity", "beadmob", "paper", "relative_difference",
-                         "multipole_order", "lubrication", "file"])
+                         "multipole_order", "lubrication", "friction", "file"])
         for row, items in compared:
             order, lubrication, _ = _method(row)
+            friction = "" if row.coefficients is None else FRICTION_DATASETS[row.coefficients.friction]
             for quantity, value, paper_value, difference in items:
                 writer.writerow([row.label, quantity, "" if value is None else repr(value),
                                  repr(paper_value), "" if difference is None else repr(difference),
-                                 order, lubrication, row.path])
+                                 order, lubrication, friction, row.path])
         return out.getvalue()
 
     def cell(quantity: str, value, paper_value, difference) -> str:
@@ -196,11 +229,16 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
              for row, items in compared]
     if fmt == "md":
         header = ["Object", *COMPARED, "L"]
-        return _markdown(header, cells) + f"\nCells: beadmob (paper; relative difference). {note}\n"
+        beadmob = method_note([row for row, _ in compared])
+        return (_markdown(header, cells)
+                + f"\nCells: beadmob (paper; relative difference). {note}"
+                + (f" {beadmob}" if beadmob else "") + "\n")
     if fmt == "tex":
         header = ["Object", "$L/d$", "$N$", *[_LATEX_NAMES[n] for n in COEFFICIENT_NAMES], "order $L$"]
+        beadmob = method_note([row for row, _ in compared])
         caption = ("beadmob (paper; relative difference) beside Table tab\\_mob\\_num of the "
-                   f"settlers paper (multipole order {PAPER_MULTIPOLE_ORDER}, with lubrication).")
+                   f"settlers paper (multipole order {PAPER_MULTIPOLE_ORDER}, with lubrication)."
+                   + (" " + _latex_escape(beadmob) if beadmob else ""))
         return _latex(header, cells, caption, "tab:beadmob_vs_paper")
     raise ValueError(f"unknown table format {fmt!r}; use one of {', '.join(FORMATS)}")
 

@@ -68,7 +68,8 @@ def test_table_formats(make_result_file):
 
     markdown = format_table(rows, "md").splitlines()
     assert markdown[0].startswith("| Object | L/d | N | mu11")
-    assert len(markdown) == 2 + 3
+    assert len(markdown) == 2 + 3 + 2   # header, rule, 3 rows; blank line and the method note
+    assert markdown[-1] == "beadmob: multipole order 1, /hydrodynamics/friction without lubrication."
     assert "| Arrowhead | 29 | 4 | 0.4220 | 0.3700 | 0.3960 | 0.0500 | -0.0670 | 1.340 | -0.254 | settler" in markdown[2]
 
     latex = format_table(rows, "tex")
