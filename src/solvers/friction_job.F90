@@ -81,7 +81,11 @@ contains
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
       stage_name = 'beadmob ' // phase_names(phase)
-      PetscCallA(PetscLogStageRegister(stage_name, stages(phase), ierr))
+      ! Registered once per program (a program may compute several frictions).
+      PetscCallA(PetscLogStageGetId(stage_name, stages(phase), ierr))
+      if (stages(phase) < 0) then
+        PetscCallA(PetscLogStageRegister(stage_name, stages(phase), ierr))
+      end if
     end do
     start = MPI_Wtime()
     PetscCallA(PetscLogStagePush(stages(1), ierr))
