@@ -137,11 +137,27 @@ def _hydro_summary(result: BeadResult) -> dict[str, Any] | None:
     hydro = result.hydrodynamics
     if hydro is None:
         return None
+    attributes = hydro.attributes
+    names = attributes.get("phase_names")
+    seconds = attributes.get("phase_seconds")
+    phases = None
+    if isinstance(names, str) and seconds is not None and len(names.split()) == np.size(seconds):
+        phases = dict(zip(names.split(), np.ravel(seconds).astype(float).tolist()))
+    cutoff = attributes.get("lubrication_cutoff")
+
+    def listed(array):
+        return None if array is None else array.tolist()
+
     return {
         "multipole_order": hydro.multipole_order,
         "lubrication": hydro.lubrication,
+        "lubrication_cutoff": float(cutoff) if hydro.lubrication and cutoff is not None else None,
         "all_converged": hydro.all_converged,
-        "coefficients": None if hydro.coefficients is None else hydro.coefficients.tolist(),
+        "operator": attributes.get("operator"),
+        "coefficients": listed(hydro.coefficients),
+        "multipole_coefficients": listed(hydro.multipole_coefficients),
+        "centre_of_mobility": listed(hydro.centre_of_mobility),
+        "phase_seconds": phases,
     }
 
 
@@ -174,11 +190,25 @@ def format_summary(summary: dict[str, Any]) -> str:
     if hydro is not None:
         converged = {True: "all solves converged", False: "NOT CONVERGED",
                      None: "convergence not recorded"}[hydro["all_converged"]]
+        cutoff = hydro.get("lubrication_cutoff")
+        operator = hydro.get("operator")
         lines.append(f"hydrodynamics:    multipole order {hydro['multipole_order']}, lubrication "
-                     f"{'yes' if hydro['lubrication'] else 'no'}, {converged}")
+                     f"{'yes' if hydro['lubrication'] else 'no'}"
+                     + (f" (cutoff {cutoff:g} d)" if cutoff is not None else "")
+                     + f", {converged}" + (f", operator {operator}" if operator else ""))
         if hydro["coefficients"] is not None:
             lines.append("mu11..mu51:       " + ", ".join(f"{v:.4g}" for v in hydro["coefficients"])
                          + " (as written by beadmob; see 'coefficients')")
+        if hydro.get("multipole_coefficients") is not None:
+            lines.append("  order L alone:  "
+                         + ", ".join(f"{v:.4g}" for v in hydro["multipole_coefficients"])
+                         + " (without the lubrication correction; 'coefficients --friction "
+                         "multipole')")
+        if hydro.get("centre_of_mobility") is not None:
+            lines.append(f"centre of mobility: {vector(hydro['centre_of_mobility'])} d")
+        if hydro.get("phase_seconds"):
+            lines.append("wall time:        " + ", ".join(
+                f"{name} {value:.3g} s" for name, value in hydro["phase_seconds"].items()))
     for name, value in summary["metadata"].items():
         lines.append(f"{name + ':':<18}{value}")
     return "\n".join(lines) + "\n"

@@ -217,6 +217,10 @@ def test_errors_are_one_line(run_command, make_result_file, tmp_path):
     assert_one_line_error(run_command("compare", other), "is not an HDF5 file")
     assert_one_line_error(run_command("fit", other), "must name columns 't'")
     assert_one_line_error(run_command("table", tmp_path / "missing.h5"), "no such file")
+    # A file without the order-L friction (older beadmob) cannot give --friction multipole.
+    assert_one_line_error(run_command("compare", unconverged, "--friction", "multipole",
+                                      "--allow-unconverged"),
+                          "no /hydrodynamics/multipole_friction")
 
 
 def test_usage_errors(capsys, settler_file, tmp_path):
