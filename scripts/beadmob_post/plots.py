@@ -49,8 +49,11 @@ def coefficient_bars(rows) -> Figure:
     handles, names = axes_row[0].get_legend_handles_labels()
     figure.legend(handles, names, loc="outside lower center", ncols=2)
     orders = sorted({row.coefficients.multipole_order for row in rows} - {None})
+    lubrication = {row.coefficients.lubrication for row in rows}
+    method = {frozenset({True}): " + lubrication",
+              frozenset({False}): ", no lubrication correction"}.get(frozenset(lubrication), "")
     figure.suptitle("Mobility coefficients, beadmob (multipole order "
-                    f"{', '.join(map(str, orders)) or '?'}) vs paper (order 2 + lubrication)")
+                    f"{', '.join(map(str, orders)) or '?'}{method}) vs paper (order 2 + lubrication)")
     return figure
 
 
