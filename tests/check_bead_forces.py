@@ -3,7 +3,8 @@
 the order-L friction: for each rigid motion m, sum_i F_i = friction[0:3, m] and
 sum_i (T_i + (R_i - R_0) x F_i) = friction[3:6, m] about the centre of mass R_0 (the definition
 of the body friction, theory.md T5). The per-bead values come from the plain Krylov solutions and
-the friction from the variational estimate, so they agree to the solver tolerance (1e-6 here)."""
+the friction from the variational estimate, so they agree to the solver tolerance (the CTest
+runs use -ksp_rtol 1e-9)."""
 import sys
 
 import h5py

@@ -49,7 +49,7 @@ module beadmob_fft_operator
   ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
   ! included because gfortran's INCLUDE (and cpp) does not find its nested include 'fftw3.f03'
   ! without an -I for the FFTW include directory, which the build does not pass.
-  integer(C_INT), parameter :: FFTW_ESTIMATE = 64
+  integer(C_INT), parameter :: FFTW_MEASURE = 0, FFTW_ESTIMATE = 64
   integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_IN = 536870912
   integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_OUT = 1073741824
   integer(C_INTPTR_T), parameter :: FFTW_MPI_DEFAULT_BLOCK = 0
@@ -125,6 +125,10 @@ module beadmob_fft_operator
     type(block_table_t) :: table
     integer :: axes(3) = [1, 2, 3]          ! lattice axis of the fast, middle and slow FFT dimension
     integer :: box(3) = 1                   ! padded size of the fast, middle and slow FFT dimension
+    !> FFTW_MEASURE plans (timed trial transforms while planning, ~20 % faster products at a
+    !> set-up cost of about ten products, but the chosen algorithm, hence the rounding, may vary
+    !> from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit).
+    logical :: measure_plans = .true.
     integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
     integer(C_INTPTR_T) :: slab_start = 0
     integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
@@ -184,8 +188,8 @@ contains
   end function fft_size
 
   !> Collective. `op` must stay in place (not be moved or copied) while `matrix` lives: PETSc
-  !> keeps its address. On error (err set on some rank) no matrix is created; calling
-  !> destroy_fft_operator then is harmless.
+  !> keeps its address. Set op%measure_plans before the call to choose the FFTW planner. On error
+  !> (err set on some rank) no matrix is created; calling destroy_fft_operator then is harmless.
   subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
@@ -360,6 +364,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: padded(3), a, b, swap
     integer(C_INTPTR_T) :: c_order(3), complex_shape(3), howmany, alloc_local, freq_planes, freq_start
+    integer(C_INT) :: planner
     real(dp) :: entries
 
     if (.not. fftw_mpi_started) then
@@ -406,13 +411,15 @@ contains
     end if
     call c_f_pointer(op%buffer, op%real_data, [2 * alloc_local])
     call c_f_pointer(op%buffer, op%spectrum, [int(howmany, i8), max(op%n_frequencies, 1_i8)])
-    ! In place: the real slab and its spectrum share the buffer.
+    ! In place: the real slab and its spectrum share the buffer (which FFTW_MEASURE overwrites
+    ! while planning: nothing is in it yet).
+    planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
     op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
                                             op%real_data, op%spectrum, comm, &
-                                            ior(FFTW_ESTIMATE, FFTW_MPI_TRANSPOSED_OUT))
+                                            ior(planner, FFTW_MPI_TRANSPOSED_OUT))
     op%backward = fftw_mpi_plan_many_dft_c2r(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
                                              op%spectrum, op%real_data, comm, &
-                                             ior(FFTW_ESTIMATE, FFTW_MPI_TRANSPOSED_IN))
+                                             ior(planner, FFTW_MPI_TRANSPOSED_IN))
     if (.not. (c_associated(op%forward) .and. c_associated(op%backward))) &
       call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
                  str(op%box(3)) // ' transforms')

@@ -14,6 +14,7 @@ module beadmob_friction_job
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_near_field_matrix, only: assemble_near_field
+  use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
@@ -32,8 +33,11 @@ module beadmob_friction_job
     real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
     !> 'direct', 'fft', or 'auto' (the faster one for the job, see choose_operator)
     character(len=16) :: operator_name = 'auto'
-    !> Pairs within this distance (d) enter the near-field preconditioning matrix.
+    !> Pairs within this distance (d) enter the near-field preconditioning matrix; with no pairs
+    !> (radius < 1 and no clusters) the preconditioner is the single-bead PCSHELL instead.
     real(dp) :: near_field_radius = 0.0_dp
+    !> Pairs within the same cube of this edge (lattice cells) enter it too; 0 = none.
+    integer :: near_field_cluster = 0
     logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
   end type friction_settings_t
 
@@ -45,6 +49,7 @@ module beadmob_friction_job
     integer :: unknowns_per_bead = 0
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     real(dp) :: near_field_radius = 0.0_dp
+    integer :: near_field_cluster = 0
     integer(i8) :: near_field_pairs = 0            ! pair blocks in the preconditioning matrix
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0
@@ -69,6 +74,7 @@ contains
     type(multipole_basis_t) :: basis
     type(bead_operator_t), target :: direct_op
     type(fft_operator_t), target :: fft_op
+    type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
     real(dp), allocatable :: projection(:, :), self(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix, near_field
@@ -124,20 +130,31 @@ contains
     call mark(1)
 
     result%near_field_radius = settings%near_field_radius
-    call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, near_field, &
-                             local_pairs8)
-    call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
+    result%near_field_cluster = settings%near_field_cluster
+    if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
+      ! No pair blocks: the single-bead blocks need no assembled matrix.
+      allocate (bead_blocks)
+      call make_bead_block_preconditioner(self, bead_blocks, err)
+      if (err%failed) then   ! the same self block on every rank
+        PetscCallA(PetscLogStagePop(ierr))
+        return
+      end if
+      near_field = matrix
+      result%near_field_pairs = 0
+    else
+      call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, &
+                               settings%near_field_cluster, near_field, local_pairs8)
+      call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
+    end if
     call mark(2)
 
-    if (settings%bead_forces) then
-      allocate (result%bead_forces(36, count))
-      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                               result%multipole_friction, result%solves, result%bead_forces)
-    else
-      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                               result%multipole_friction, result%solves)
+    ! Unallocated optional arguments count as absent (Fortran 2008).
+    if (settings%bead_forces) allocate (result%bead_forces(36, count))
+    call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
+                             result%multipole_friction, result%solves, result%bead_forces, bead_blocks)
+    if (.not. allocated(bead_blocks)) then
+      PetscCallA(MatDestroy(near_field, ierr))
     end if
-    PetscCallA(MatDestroy(near_field, ierr))
     if (result%operator_name == 'fft') then
       call destroy_fft_operator(fft_op, matrix)
     else
@@ -182,18 +199,21 @@ contains
   end subroutine friction_of_model
 
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
-  !> auto), -near_field_radius R (d) and -geometry_only (skip the friction job).
+  !> auto), -near_field_radius R (d), -near_field_cluster C (lattice cells) and -geometry_only (skip the friction job).
   subroutine operator_option(settings, geometry_only)
     type(friction_settings_t), intent(inout) :: settings
     logical, intent(out) :: geometry_only
     character(len=16) :: value
     PetscBool :: found
     PetscReal :: radius
+    PetscInt :: edge
     PetscErrorCode :: ierr
     PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-operator', value, found, ierr))
     if (found) settings%operator_name = value
     PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_radius', radius, found, ierr))
     if (found) settings%near_field_radius = radius
+    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_cluster', edge, found, ierr))
+    if (found) settings%near_field_cluster = int(edge)
     PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
     geometry_only = found
   end subroutine operator_option

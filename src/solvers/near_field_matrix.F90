@@ -1,6 +1,9 @@
 !> The near-field part of the multipole operator as an assembled, distributed PETSc block matrix
 !> (block size = unknowns per bead, theory.md T6): the single-bead blocks plus the two-bead blocks
-!> of every pair closer than a radius. It is the preconditioning matrix of the Krylov solves
+!> of every pair closer than a radius and of every pair in the same cluster (a cube of
+!> cluster_edge x cluster_edge x cluster_edge lattice cells). Cluster blocks are exact principal
+!> submatrices of the SPD operator, so the matrix stays SPD with clusters alone, which a radius
+!> >= 1 does not guarantee (docs/theory.md T11). It is the preconditioning matrix of the Krylov solves
 !> (method.md, "Preconditioning"): factorised by MUMPS through PETSc by default, or used by any
 !> other PETSc preconditioner (-pc_type pbjacobi = the single-bead blocks alone, bjacobi, asm, ...).
 !> Beads on the lattice find their neighbours through a grid of lattice sites and share the blocks
@@ -19,16 +22,19 @@ module beadmob_near_field_matrix
 contains
 
   !> Collective. Rows of beads first..first+n_local-1; `radius` in d (pairs with centre
-  !> distance <= radius); `self_block` the single-bead block. Returns the number of pair blocks
-  !> this rank stored.
-  subroutine assemble_near_field(comm, basis, self_block, centres, first, n_local, radius, matrix, n_pairs)
+  !> distance <= radius); cluster_edge > 0 adds the pairs within the same cube of that edge (d),
+  !> cubes counted from the bead set's lower corner; `self_block` the single-bead block. Returns
+  !> the number of pair blocks this rank stored.
+  subroutine assemble_near_field(comm, basis, self_block, centres, first, n_local, radius, cluster_edge, matrix, &
+                                 n_pairs)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: self_block(:, :), centres(:, :), radius
+    integer, intent(in) :: cluster_edge
     integer(i8), intent(in) :: first, n_local
     Mat, intent(out) :: matrix
     integer(i8), intent(out) :: n_pairs
-    integer, allocatable :: site(:, :, :), lattice(:, :), neighbours(:, :), offsets(:, :)
+    integer, allocatable :: site(:, :, :), lattice(:, :), offsets(:, :), cluster(:, :), offset_number(:, :, :)
     integer(i8), allocatable :: columns(:)
     real(dp), allocatable :: offset_blocks(:, :, :), block(:, :)
     PetscInt, allocatable :: diagonal_count(:), off_diagonal_count(:), diagonal_upper(:), off_diagonal_upper(:)
@@ -36,19 +42,22 @@ contains
     PetscErrorCode :: ierr
     real(dp) :: corner(3)
     integer(i8) :: i, bead, k, n_columns, last
-    integer :: n_offsets, o, reach, dx, dy, dz, c(3)
+    integer :: n_offsets, reach, dx, dy, dz, c(3)
     logical :: lattice_model
     MatType :: matrix_type
 
     nb = basis%size
     last = first + n_local - 1
     lattice_model = on_unit_lattice(centres)
-    reach = floor(radius + 1.0e-9_dp)
+    reach = max(floor(radius + 1.0e-9_dp), cluster_edge - 1)
     allocate (columns(64), block(nb, nb))
+    corner = minval(centres, dim=2)
+    allocate (cluster(3, size(centres, 2)))
+    cluster = 0
+    if (cluster_edge > 0) cluster = floor((centres - spread(corner, 2, size(centres, 2))) / cluster_edge + 1.0e-9_dp)
 
     if (lattice_model) then
       ! Lattice sites -> bead number, and the blocks of every offset within the radius.
-      corner = minval(centres, dim=2)
       allocate (lattice(3, size(centres, 2)))
       lattice = nint(centres - spread(corner, 2, size(centres, 2)))
       allocate (site(-reach:maxval(lattice(1, :)) + reach, -reach:maxval(lattice(2, :)) + reach, &
@@ -58,14 +67,18 @@ contains
         site(lattice(1, i), lattice(2, i), lattice(3, i)) = int(i)
       end do
       allocate (offsets(3, (2 * reach + 1)**3), offset_blocks(nb, nb, (2 * reach + 1)**3))
+      allocate (offset_number(-reach:reach, -reach:reach, -reach:reach))
+      offset_number = 0
       n_offsets = 0
       do dz = -reach, reach
         do dy = -reach, reach
           do dx = -reach, reach
             if (dx == 0 .and. dy == 0 .and. dz == 0) cycle
-            if (real(dx * dx + dy * dy + dz * dz, dp) > radius**2 * (1.0_dp + 1.0e-9_dp)) cycle
+            if (real(dx * dx + dy * dy + dz * dz, dp) > radius**2 * (1.0_dp + 1.0e-9_dp) .and. &
+                any(abs([dx, dy, dz]) >= cluster_edge)) cycle
             n_offsets = n_offsets + 1
             offsets(:, n_offsets) = [dx, dy, dz]
+            offset_number(dx, dy, dz) = n_offsets
             ! Row bead minus column bead = -offset (the column bead sits at +offset).
             call pair_block(basis, -real([dx, dy, dz], dp), offset_blocks(:, :, n_offsets))
           end do
@@ -110,10 +123,7 @@ contains
         column_index(1) = int(columns(k) - 1)
         if (lattice_model) then
           c = lattice(:, columns(k)) - lattice(:, bead)
-          do o = 1, n_offsets
-            if (all(offsets(:, o) == c)) exit
-          end do
-          block = offset_blocks(:, :, o)
+          block = offset_blocks(:, :, offset_number(c(1), c(2), c(3)))
         else
           call pair_block(basis, centres(:, bead) - centres(:, columns(k)), block)
         end if
@@ -138,6 +148,7 @@ contains
           c = lattice(:, bead) + offsets(:, q)
           if (any(c < lbound(site) .or. c > ubound(site))) cycle
           if (site(c(1), c(2), c(3)) == 0) cycle
+          if (.not. in_near_field(bead, int(site(c(1), c(2), c(3)), i8))) cycle
           n = n + 1
           if (n > size(columns)) columns = [columns, columns]
           columns(n) = site(c(1), c(2), c(3))
@@ -145,12 +156,19 @@ contains
       else
         do j = 1, size(centres, 2)
           if (j == bead) cycle
-          if (norm2(centres(:, j) - centres(:, bead)) > radius * (1.0_dp + 1.0e-9_dp)) cycle
+          if (.not. in_near_field(bead, j)) cycle
           n = n + 1
           if (n > size(columns)) columns = [columns, columns]
           columns(n) = j
         end do
       end if
     end subroutine neighbours_of
+
+    !> Whether the pair (a, b) enters the matrix: within the radius or in the same cluster.
+    pure logical function in_near_field(a, b)
+      integer(i8), intent(in) :: a, b
+      in_near_field = norm2(centres(:, a) - centres(:, b)) <= radius * (1.0_dp + 1.0e-9_dp)
+      if (cluster_edge > 0) in_near_field = in_near_field .or. all(cluster(:, a) == cluster(:, b))
+    end function in_near_field
   end subroutine assemble_near_field
 end module beadmob_near_field_matrix

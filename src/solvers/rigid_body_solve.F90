@@ -7,14 +7,17 @@
 !> error, -e_m^T A e_n, instead of linear: the friction is then accurate far below the Krylov
 !> tolerance, symmetric, and independent of the number of ranks to rounding.
 !> Default Krylov method: CG, since A is the Galerkin matrix of the Stokes single-layer operator in
-!> an orthonormal basis, symmetric positive definite (theory.md T6). The preconditioner works on an
-!> assembled near-field matrix (beadmob_near_field_matrix); default: its Cholesky factorisation by
-!> MUMPS; -pc_type pbjacobi gives the single-bead blocks alone. Every -ksp_/-pc_ option applies.
+!> an orthonormal basis, symmetric positive definite (theory.md T6). Preconditioner: the
+!> single-bead blocks (a PCSHELL, beadmob_bead_block_preconditioner) when given, else the
+!> Cholesky factorisation by MUMPS of the assembled near-field matrix (beadmob_near_field_matrix).
+!> Default relative tolerance 1e-4: with the variational friction it leaves a solver error of
+!> ~1e-6 in the coefficients (bench/solver_tolerance.md). Every -ksp_/-pc_ option applies.
 module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
+  use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
   implicit none
   private
   public :: solve_statistics_t, rigid_body_friction, motion_names
@@ -41,8 +44,9 @@ contains
   !> m of one bead about its centre (its transpose gives force and torque from the multipoles).
   !> bead_forces, when present (36 x n_local): column i holds, for motion m = 1..6, the force and
   !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
+  !> bead_blocks, when present, is the preconditioner (preconditioning_matrix then unused).
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
-                                 reference_point, friction, stats, bead_forces)
+                                 reference_point, friction, stats, bead_forces, bead_blocks)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
@@ -50,6 +54,7 @@ contains
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
     real(dp), intent(out), optional :: bead_forces(:, :)
+    type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -67,12 +72,17 @@ contains
 
     nb = size(projection, 1)
     PetscCallA(KSPCreate(comm, ksp, ierr))
-    PetscCallA(KSPSetOperators(ksp, matrix, preconditioning_matrix, ierr))
     PetscCallA(KSPSetType(ksp, KSPCG, ierr))
     PetscCallA(KSPGetPC(ksp, pc, ierr))
-    PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
-    PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
-    PetscCallA(KSPSetTolerances(ksp, 1.0e-6_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+    if (present(bead_blocks)) then
+      PetscCallA(KSPSetOperators(ksp, matrix, matrix, ierr))
+      call attach_bead_block_preconditioner(pc, bead_blocks)
+    else
+      PetscCallA(KSPSetOperators(ksp, matrix, preconditioning_matrix, ierr))
+      PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
+      PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
+    end if
+    PetscCallA(KSPSetTolerances(ksp, 1.0e-4_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
@@ -128,6 +138,7 @@ contains
     PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
     stats%ksp_type = ksp_type
     stats%pc_type = pc_type
+    if (present(bead_blocks) .and. pc_type == PCSHELL) stats%pc_type = 'single-bead blocks (shell)'
     stats%relative_tolerance = rtol
     do motion = 1, 6
       PetscCallA(VecDestroy(rhs(motion), ierr))
