@@ -53,6 +53,7 @@ contains
       '', &
       'Options of beadmob (after INPUT.nml):', &
       '  -operator direct|fft|auto   the bead operator (default auto: the faster one for the job)', &
+      '  -fft_planner measure|estimate  FFTW plans: measured (default, faster) or reproducible', &
       '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
       '  -near_field_cluster C       and pairs within the same C x C x C cube of lattice cells', &
       '  -geometry_only              build and check the bead model, skip &hydrodynamics', &

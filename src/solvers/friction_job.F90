@@ -33,6 +33,9 @@ module beadmob_friction_job
     real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
     !> 'direct', 'fft', or 'auto' (the faster one for the job, see choose_operator)
     character(len=16) :: operator_name = 'auto'
+    !> FFTW planner of the FFT operator: 'measure' (faster products) or 'estimate' (bitwise
+    !> reproducible from run to run)
+    character(len=16) :: fft_planner = 'measure'
     !> Pairs within this distance (d) enter the near-field preconditioning matrix; with no pairs
     !> (radius < 1 and no clusters) the preconditioner is the single-bead PCSHELL instead.
     real(dp) :: near_field_radius = 0.0_dp
@@ -101,11 +104,14 @@ contains
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
     call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err)
+    if (.not. err%failed .and. settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') &
+      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
     if (err%failed) then   ! same input on every rank: same outcome
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
     if (result%operator_name == 'fft') then
+      fft_op%measure_plans = settings%fft_planner == 'measure'
       call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err)
       call agree_on_error(ctx, err)
       if (err%failed) then
@@ -199,7 +205,8 @@ contains
   end subroutine friction_of_model
 
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
-  !> auto), -near_field_radius R (d), -near_field_cluster C (lattice cells) and -geometry_only (skip the friction job).
+  !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C
+  !> (lattice cells) and -geometry_only (skip the friction job).
   subroutine operator_option(settings, geometry_only)
     type(friction_settings_t), intent(inout) :: settings
     logical, intent(out) :: geometry_only
@@ -214,6 +221,8 @@ contains
     if (found) settings%near_field_radius = radius
     PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_cluster', edge, found, ierr))
     if (found) settings%near_field_cluster = int(edge)
+    PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-fft_planner', value, found, ierr))
+    if (found) settings%fft_planner = value
     PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
     geometry_only = found
   end subroutine operator_option
