@@ -66,6 +66,8 @@ contains
       settings%lubrication = config%hydrodynamics%lubrication
       settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
       settings%bead_forces = config%hydrodynamics%bead_forces
+      settings%cache_file = config%hydrodynamics%cache_file
+      if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
       call compute_mobility(hydro%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, &
@@ -98,6 +100,10 @@ contains
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
+    if (len_trim(hydro%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(hydro%cache_file) // ': ' // &
+      str(hydro%cached_blocks) // ' blocks read, ' // str(hydro%computed_blocks) // ' computed; lubrication ' // &
+      str(hydro%lubrication_table%cached_distances) // ' distances read, ' // &
+      str(hydro%lubrication_table%computed_distances) // ' computed'
     write (*, '(a, f0.1, a)') '  peak memory (largest rank): ', hydro%peak_memory_bytes / 2.0_dp**20, ' MiB'
     write (*, '(a, *(a, f0.2, :, ","))') '  wall time (s):', (' ' // trim(phase_names(phase)) // ' ', &
       hydro%seconds(phase), phase = 1, size(phase_names))
@@ -105,6 +111,23 @@ contains
       'beadmob: warning: not every Krylov solve converged (reasons ', hydro%solves%converged_reason, &
       '); the result file flags it: /hydrodynamics all_converged = 0'
   end subroutine print_mobility
+
+  !> BEADMOB_CACHE ('' when unset), as rank 0 sees it: the ranks must agree on caching.
+  function environment_cache_file(ctx) result(path)
+    type(run_context_t), intent(in) :: ctx
+    character(len=:), allocatable :: path
+    integer :: length, status
+    path = ''
+    if (ctx%rank == 0) then
+      call get_environment_variable('BEADMOB_CACHE', length=length, status=status)
+      if (status == 0 .and. length > 0) then
+        deallocate (path)
+        allocate (character(len=length) :: path)
+        call get_environment_variable('BEADMOB_CACHE', path)
+      end if
+    end if
+    call broadcast_text(ctx, path)
+  end function environment_cache_file
 
   pure function lubrication_summary(enabled, pairs) result(text)
     logical, intent(in) :: enabled

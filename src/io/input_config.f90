@@ -54,6 +54,9 @@ module beadmob_input_config
     real(dp) :: lubrication_cutoff = 2.0_dp
     !> Write the force and torque of every bead for every rigid motion (large: 36 numbers a bead).
     logical :: bead_forces = .false.
+    !> HDF5 table cache of the lattice blocks and lubrication corrections (relative paths: to the
+    !> working directory); '' = the environment variable BEADMOB_CACHE, else no cache.
+    character(len=1024) :: cache_file = ''
   end type hydrodynamics_config_t
 
   type :: run_config_t
@@ -147,8 +150,9 @@ contains
     integer :: multipole_order, potential_order, status
     logical :: lubrication, bead_forces
     real(dp) :: lubrication_cutoff
+    character(len=1024) :: cache_file
     character(len=512) :: message
-    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces
+    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -157,6 +161,7 @@ contains
     lubrication = hydro%lubrication
     lubrication_cutoff = hydro%lubrication_cutoff
     bead_forces = hydro%bead_forces
+    cache_file = hydro%cache_file
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -180,6 +185,7 @@ contains
     hydro%lubrication = lubrication
     hydro%lubrication_cutoff = lubrication_cutoff
     hydro%bead_forces = bead_forces
+    hydro%cache_file = cache_file
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -268,8 +274,15 @@ contains
       '  lubrication = ' // merge('.true. ', '.false.', config%hydrodynamics%lubrication) // new_line('a') // &
       '  lubrication_cutoff = ' // str(config%hydrodynamics%lubrication_cutoff) // new_line('a') // &
       '  bead_forces = ' // merge('.true. ', '.false.', config%hydrodynamics%bead_forces) // new_line('a') // &
-      '/' // new_line('a')
+      cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
   contains
+    pure function cache_line(path) result(line_text)
+      character(len=*), intent(in) :: path
+      character(len=:), allocatable :: line_text
+      line_text = ''
+      if (len_trim(path) > 0) line_text = "  cache_file = '" // trim(path) // "'" // new_line('a')
+    end function cache_line
+
     subroutine add_real(name, value)
       character(len=*), intent(in) :: name
       real(dp), intent(in) :: value

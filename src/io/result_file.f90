@@ -197,6 +197,8 @@ contains
     call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
     call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
     call write_attribute(group, 'computed_blocks', int(hydro%computed_blocks), err)
+    call write_attribute(group, 'cached_blocks', int(hydro%cached_blocks), err)
+    call write_attribute(group, 'cache_file', trim(hydro%cache_file), err)
     names = trim(phase_names(1))
     do k = 2, size(phase_names)
       names = names // ' ' // trim(phase_names(k))
@@ -208,6 +210,8 @@ contains
       call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
       call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)
       call write_attribute(group, 'lubrication_reference_order', hydro%lubrication_reference_order, err)
+      call write_attribute(group, 'lubrication_cached_distances', hydro%lubrication_table%cached_distances, err)
+      call write_attribute(group, 'lubrication_computed_distances', hydro%lubrication_table%computed_distances, err)
       call write_replicated_dataset(ctx, group, 'multipole_coefficients', hydro%multipole_coefficients, err)
       if (size(hydro%lubrication_table%distances) > 0) then
         call write_replicated_dataset(ctx, group, 'lubrication_distances', hydro%lubrication_table%distances, err)

@@ -7,26 +7,34 @@
 !> there. By the doublet's symmetry Z = diag(Y, Y, X, Yr, Yr, Xr) with the pair along z: four
 !> numbers per distance; a lattice has few distances, so the table is small.
 module beadmob_lubrication
+  use mpi
   use beadmob_kinds, only: dp
-  use beadmob_errors, only: error_t
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis, bead_radius
   use beadmob_dense_friction, only: dense_friction, rigid_motions
   use beadmob_two_sphere_exact, only: stimson_jeffery, stimson_jeffery_contact
+  use beadmob_table_cache, only: cache_key_t, read_cached_lubrication, write_cached_lubrication, warn_cache
   implicit none
   private
   public :: doublet_friction, exact_doublet_friction, lubrication_table_t, make_lubrication_table, &
-            add_lubrication, reference_order, contact_tolerance
+            make_shared_lubrication_table, lubrication_cache_key, add_lubrication, reference_order, contact_tolerance
 
   !> Order of the "exact" doublet values: rigid-doublet friction converges in L even at contact;
   !> L = 24 -> 30 changes them by < 1e-8 relative (theory.md T8 table, tests).
   integer, parameter :: reference_order = 30
   real(dp), parameter :: contact_tolerance = 1.0e-9_dp
+  !> Part of the cache key of the corrections: bump it whenever doublet_friction,
+  !> exact_doublet_friction or the two-sphere series change.
+  integer, parameter :: lubrication_formula_version = 1
 
   type :: lubrication_table_t
     real(dp) :: cutoff = 0.0_dp
     real(dp), allocatable :: distances(:)
     !> correction(1:4, k): Z_exact - Z_L for (Y, X, Yr, Xr) at distances(k)
     real(dp), allocatable :: correction(:, :)
+    integer :: cached_distances = 0     ! corrections read from the table cache
+    integer :: computed_distances = 0   ! corrections computed
   end type lubrication_table_t
 
 contains
@@ -92,7 +100,104 @@ contains
       call doublet_friction(order, potential_order, found(k), approximate, err)
       table%correction(:, k) = exact - approximate
     end do
+    table%computed_distances = size(found)
   end subroutine make_lubrication_table
+
+  !> The cache key of the corrections at order (L, L2): everything they depend on.
+  function lubrication_cache_key(order, potential_order) result(key)
+    integer, intent(in) :: order, potential_order
+    type(cache_key_t) :: key
+    key%name = 'L' // str(order) // '_L2_' // str(potential_order)
+    key%text = 'rigid-doublet corrections Z_exact - Z_L (Y, X, Yr, Xr) per centre distance (units of d); ' // &
+               'multipole_order = ' // str(order) // ', potential_order = ' // str(potential_order) // &
+               ', bead_radius = ' // str(bead_radius) // '; exact: multipole order ' // str(reference_order) // &
+               ' (potential order ' // str(reference_order - 2) // '), axial translation Stimson-Jeffery, ' // &
+               'contact within ' // str(contact_tolerance) // '; lubrication_formula_version = ' // &
+               str(lubrication_formula_version)
+  end function lubrication_cache_key
+
+  !> make_lubrication_table collectively over comm, the same table on every rank: corrections
+  !> found in the table cache `cache_file` ('' = none; read by rank 0, for the identical distance)
+  !> are taken from it, the others are computed shared over the ranks and added to the cache.
+  subroutine make_shared_lubrication_table(comm, order, potential_order, centres, cutoff, cache_file, table, err)
+    integer, intent(in) :: comm, order, potential_order
+    real(dp), intent(in) :: centres(:, :), cutoff
+    character(len=*), intent(in) :: cache_file
+    type(lubrication_table_t), intent(out) :: table
+    type(error_t), intent(inout) :: err
+    real(dp) :: exact(4), approximate(4)
+    real(dp), allocatable :: found(:), cached_distances(:), cached(:, :), computed(:, :), gathered(:, :)
+    integer, allocatable :: missing(:), counts(:), offsets(:), flags(:)
+    integer :: rank, n_ranks, ierr, j, k, h, n, n_missing, mine, failed_here, failed_anywhere
+    type(error_t) :: cache_err
+
+    call MPI_Comm_rank(comm, rank, ierr)
+    call MPI_Comm_size(comm, n_ranks, ierr)
+    ! Every rank finds the same distances from the same centres.
+    call distinct_close_distances(centres, cutoff, found)
+    n = size(found)
+    table%cutoff = cutoff
+    table%distances = found
+    allocate (table%correction(4, n), flags(n))
+    flags = 0
+    if (len(cache_file) > 0 .and. rank == 0) then
+      call read_cached_lubrication(cache_file, lubrication_cache_key(order, potential_order), cached_distances, &
+                                   cached, cache_err)
+      if (cache_err%failed) call warn_cache(cache_file, cache_err%message // &
+                                            '; computing every lubrication correction and rewriting the cache')
+      do k = 1, n
+        do j = 1, size(cached_distances)
+          ! Identical distances only: the correction then is exactly the one computed before.
+          if (cached_distances(j) == found(k)) then
+            flags(k) = 1
+            table%correction(:, k) = cached(:, j)
+            exit
+          end if
+        end do
+      end do
+    end if
+    if (len(cache_file) > 0) then
+      call MPI_Bcast(flags, n, MPI_INTEGER, 0, comm, ierr)
+      if (any(flags == 1)) call MPI_Bcast(table%correction, 4 * n, MPI_DOUBLE_PRECISION, 0, comm, ierr)
+    end if
+
+    ! The missing corrections, shared over the ranks.
+    missing = pack([(k, k = 1, n)], flags == 0)
+    n_missing = size(missing)
+    allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
+    do h = 0, n_ranks - 1
+      counts(h) = n_missing / n_ranks + merge(1, 0, h < mod(n_missing, n_ranks))
+    end do
+    offsets(0) = 0
+    do h = 1, n_ranks - 1
+      offsets(h) = offsets(h - 1) + counts(h - 1)
+    end do
+    mine = counts(rank)
+    allocate (computed(4, max(mine, 1)), gathered(4, max(n_missing, 1)))
+    do h = 1, mine
+      k = missing(offsets(rank) + h)
+      call exact_doublet_friction(found(k), exact, err)
+      call doublet_friction(order, potential_order, found(k), approximate, err)
+      computed(:, h) = exact - approximate
+    end do
+    call MPI_Allgatherv(computed, 4 * mine, MPI_DOUBLE_PRECISION, gathered, 4 * counts, 4 * offsets, &
+                        MPI_DOUBLE_PRECISION, comm, ierr)
+    if (ierr /= MPI_SUCCESS) call raise(err, 'MPI_Allgatherv of the lubrication table failed')
+    table%correction(:, missing) = gathered(:, 1:n_missing)
+    table%cached_distances = n - n_missing
+    table%computed_distances = n_missing
+
+    ! Store only corrections every rank computed without error.
+    failed_here = merge(1, 0, err%failed)
+    call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (len(cache_file) > 0 .and. rank == 0 .and. n_missing > 0 .and. failed_anywhere == 0) then
+      call write_cached_lubrication(cache_file, lubrication_cache_key(order, potential_order), &
+                                    [cached_distances, found(missing)], &
+                                    reshape([cached, gathered(:, 1:n_missing)], [4, size(cached_distances) + n_missing]), &
+                                    cache_err)
+      if (cache_err%failed) call warn_cache(cache_file, 'not updated: ' // cache_err%message)
+    end if
+  end subroutine make_shared_lubrication_table
 
   !> Sorted distinct centre distances (to 1e-9 relative) of pairs closer than cutoff. O(N^2)
   !> only over pairs in neighbouring cells of a cell list would be needed for huge models; here a

@@ -4,22 +4,33 @@
 !> only for displacements that the 48 lattice symmetries and A(-r) = A(r)^T (theory.md T4) do not
 !> relate, shared over the MPI ranks. Off-lattice bead sets
 !> (bead files) store the blocks of this rank's rows for every column bead instead.
+!> With a table cache file (table_cache.f90) the canonical blocks of earlier runs are read from it
+!> and only the missing ones computed; the file then gets the union.
 module beadmob_block_table
   use mpi
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_multipole_basis, only: multipole_basis_t, bead_radius
   use beadmob_pair_blocks, only: pair_block
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
+  use beadmob_table_cache, only: cache_key_t, read_cached_blocks, write_cached_blocks, warn_cache
   implicit none
   private
-  public :: block_table_t, make_block_table, table_block_index, lattice_tolerance, on_unit_lattice
+  public :: block_table_t, make_block_table, table_block_index, lattice_tolerance, on_unit_lattice, block_cache_key
+  public :: block_formula_version
 
   !> Beads are on the lattice when every centre is within this distance (d) of a lattice point.
   real(dp), parameter :: lattice_tolerance = 1.0e-9_dp
   !> Largest block store allowed per rank (bytes) before refusing an off-lattice model.
   real(dp), parameter :: max_store_bytes = 8.0e9_dp
+  !> Part of the cache key of the blocks: bump it whenever pair_block, its quadrature or the
+  !> multipole basis (functions, ordering, normalisation) change, so cached blocks of the old
+  !> formulas are no longer used.
+  integer, parameter :: block_formula_version = 1
+  !> pair_block's quadrature rule (pair_blocks.f90), also in the key: a changed rule shows there.
+  character(len=*), parameter :: pair_block_rule = 'Gauss-Legendre n_theta = ceiling((40 + 1.5 (L + 3)) / ' // &
+                                                   'log rho) / 2 + L + 8 within [L + 8, 400], trapezoid n_phi = 2 max|k| + 8'
 
   type :: block_table_t
     logical :: on_lattice = .false.
@@ -28,6 +39,10 @@ module beadmob_block_table
     integer, allocatable :: lattice(:, :)      ! (3, N) integer coordinates (lattice models)
     real(dp), allocatable :: blocks(:, :, :)   ! (nb, nb, n_blocks)
     integer(i8) :: computed_blocks = 0         ! blocks evaluated by quadrature (all ranks)
+    integer(i8) :: cached_blocks = 0           ! blocks read from the table cache
+    !> The table cache file ('' or unallocated: none). Callers that reach make_block_table
+    !> through an operator's create routine set it in the operator's table before that call.
+    character(len=:), allocatable :: cache_file
   end type block_table_t
 
 contains
@@ -56,17 +71,36 @@ contains
     end do
   end function on_unit_lattice
 
-  !> Collective over comm. first, n_local: this rank's rows (off-lattice case).
-  subroutine make_block_table(comm, basis, centres, first, n_local, table, err)
+  !> The cache key of the blocks of `basis`: everything they depend on.
+  function block_cache_key(basis) result(key)
+    type(multipole_basis_t), intent(in) :: basis
+    type(cache_key_t) :: key
+    key%name = 'L' // str(basis%order) // '_L2_' // str(basis%potential_order)
+    key%text = 'two-bead Galerkin blocks of canonical lattice displacements (units of d); multipole_order = ' // &
+               str(basis%order) // ', potential_order = ' // str(basis%potential_order) // ', unknowns_per_bead = ' // &
+               str(basis%size) // ', bead_radius = ' // str(bead_radius) // '; quadrature: ' // pair_block_rule // &
+               '; block_formula_version = ' // str(block_formula_version)
+  end function block_cache_key
+
+  !> Collective over comm. first, n_local: this rank's rows (off-lattice case). `cache_file`
+  !> (default: table%cache_file as set by the caller, else none; '' = none): the table cache
+  !> of the lattice blocks (off-lattice stores do not use it). The table is rebuilt from scratch.
+  subroutine make_block_table(comm, basis, centres, first, n_local, table, err, cache_file)
     integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
     integer(i8), intent(in) :: first, n_local
-    type(block_table_t), intent(out) :: table
+    type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
+    character(len=*), intent(in), optional :: cache_file
+    character(len=:), allocatable :: cache
     real(dp) :: corner(3)
     integer :: i
 
+    cache = ''
+    if (allocated(table%cache_file)) cache = trim(table%cache_file)
+    if (present(cache_file)) cache = trim(cache_file)
+    table = block_table_t(cache_file=cache)
     table%block_size = basis%size
     corner = minval(centres, dim=2)
     allocate (table%lattice(3, size(centres, 2)))
@@ -84,16 +118,22 @@ contains
   end subroutine make_block_table
 
   !> Every displacement of the box. Quadrature only for the canonical displacements
-  !> (d_1 >= d_2 >= d_3 >= 0, shared over the ranks); the rest by the lattice symmetries,
-  !> A(Q c) = D_Q A(c) D_Q^T, on the half box, and A(-d) = A(d)^T for the other half.
+  !> (d_1 >= d_2 >= d_3 >= 0, shared over the ranks) not found in the table cache; the rest by the
+  !> lattice symmetries, A(Q c) = D_Q A(c) D_Q^T, on the half box, and A(-d) = A(d)^T for the other half.
   subroutine fill_lattice_table(comm, basis, table, err)
     integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
-    integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, m, n_canonical, mine
-    integer, allocatable :: counts(:), offsets(:), canonical_id(:, :, :), canonical_list(:, :)
-    real(dp), allocatable :: canonical_blocks(:, :, :), computed(:, :, :), transforms(:, :, :)
+    integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, m, n_canonical, mine, &
+               n_missing
+    integer, allocatable :: counts(:), offsets(:), canonical_id(:, :, :), canonical_list(:, :), missing(:), &
+                            cached_list(:, :)
+    real(dp), allocatable :: canonical_blocks(:, :, :), computed(:, :, :), gathered(:, :, :), transforms(:, :, :), &
+                             cached(:, :, :)
+    logical, allocatable :: known(:)
+    logical :: caching
+    type(error_t) :: cache_err
     real(dp) :: bytes
 
     nb = basis%size
@@ -124,25 +164,46 @@ contains
 
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
+    allocate (canonical_blocks(nb, nb, max(n_canonical, 1)), known(n_canonical))
+    known = .false.
+    ! The cache file name is the same on every rank (from the broadcast input), so is this.
+    caching = len(table%cache_file) > 0
+    if (caching) call take_cached_blocks()
+
+    ! Quadrature for the rest, shared over the ranks.
+    missing = pack([(h, h = 1, n_canonical)], .not. known)
+    n_missing = size(missing)
     allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
     do h = 0, n_ranks - 1
-      counts(h) = n_canonical / n_ranks + merge(1, 0, h < mod(n_canonical, n_ranks))
+      counts(h) = n_missing / n_ranks + merge(1, 0, h < mod(n_missing, n_ranks))
     end do
     offsets(0) = 0
     do h = 1, n_ranks - 1
       offsets(h) = offsets(h - 1) + counts(h - 1)
     end do
     mine = counts(rank)
-    allocate (computed(nb, nb, max(mine, 1)), canonical_blocks(nb, nb, max(n_canonical, 1)))
+    allocate (computed(nb, nb, max(mine, 1)), gathered(nb, nb, max(n_missing, 1)))
     do h = 1, mine
-      call pair_block(basis, real(canonical_list(:, offsets(rank) + h), dp), computed(:, :, h))
+      call pair_block(basis, real(canonical_list(:, missing(offsets(rank) + h)), dp), computed(:, :, h))
     end do
     counts = counts * nb * nb
     offsets = offsets * nb * nb
-    call MPI_Allgatherv(computed, mine * nb * nb, MPI_DOUBLE_PRECISION, canonical_blocks, counts, offsets, &
+    call MPI_Allgatherv(computed, mine * nb * nb, MPI_DOUBLE_PRECISION, gathered, counts, offsets, &
                         MPI_DOUBLE_PRECISION, comm, ierr)
     if (ierr /= MPI_SUCCESS) call raise(err, 'MPI_Allgatherv of the block table failed')
     deallocate (computed)
+    canonical_blocks(:, :, missing) = gathered(:, :, 1:n_missing)
+    table%computed_blocks = n_missing
+    table%cached_blocks = n_canonical - n_missing
+    if (caching .and. rank == 0 .and. n_missing > 0 .and. .not. err%failed) then
+      ! The union of the cached entry (also blocks this body does not need) and the new blocks.
+      call write_cached_blocks(table%cache_file, block_cache_key(basis), &
+                               reshape([cached_list, canonical_list(:, missing)], [3, size(cached_list, 2) + n_missing]), &
+                               reshape([cached, gathered(:, :, 1:n_missing)], [nb, nb, size(cached, 3) + n_missing]), &
+                               cache_err)
+      if (cache_err%failed) call warn_cache(table%cache_file, 'not updated: ' // cache_err%message)
+    end if
+    deallocate (gathered)
 
     allocate (transforms(nb, nb, n_symmetries), table%blocks(nb, nb, n_blocks))
     call basis_transforms(basis, transforms)
@@ -156,9 +217,43 @@ contains
       table%blocks(:, :, 2 * centre_index - index) = transpose(table%blocks(:, :, index))
     end do
     table%blocks(:, :, centre_index) = 0.0_dp   ! the self block is the operator's business
-    table%computed_blocks = n_canonical
 
   contains
+
+    !> Collective. Rank 0 reads the cache entry and takes the blocks of the canonical
+    !> displacements this table needs (known = .true.); all ranks receive them. A cache that cannot
+    !> be used gives a warning and no blocks. cached_list, cached: the entry, on rank 0.
+    subroutine take_cached_blocks()
+      integer, allocatable :: taken(:)
+      integer :: j, k, n_taken, flags(n_canonical), e(3)
+      real(dp), allocatable :: buffer(:, :, :)
+      if (rank == 0) then
+        call read_cached_blocks(table%cache_file, block_cache_key(basis), nb, cached_list, cached, cache_err)
+        if (cache_err%failed) call warn_cache(table%cache_file, cache_err%message // &
+                                              '; computing every block and rewriting the cache')
+        do j = 1, size(cached_list, 2)
+          e = cached_list(:, j)   ! canonical (checked on reading): 0 <= e <= e(1)
+          if (e(1) > m) cycle
+          k = canonical_id(e(1), e(2), e(3))
+          if (k == 0) cycle
+          if (known(k)) cycle
+          known(k) = .true.
+          canonical_blocks(:, :, k) = cached(:, :, j)
+        end do
+      else
+        allocate (cached_list(3, 0), cached(nb, nb, 0))
+      end if
+      flags = merge(1, 0, known)
+      call MPI_Bcast(flags, n_canonical, MPI_INTEGER, 0, comm, ierr)
+      known = flags == 1
+      taken = pack([(j, j = 1, n_canonical)], known)
+      n_taken = size(taken)
+      if (n_taken == 0) return
+      allocate (buffer(nb, nb, n_taken))
+      if (rank == 0) buffer = canonical_blocks(:, :, taken)
+      call MPI_Bcast(buffer, nb * nb * n_taken, MPI_DOUBLE_PRECISION, 0, comm, ierr)
+      canonical_blocks(:, :, taken) = buffer
+    end subroutine take_cached_blocks
 
     pure function displacement_of(linear) result(dd)
       integer, intent(in) :: linear

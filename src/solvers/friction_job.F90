@@ -17,7 +17,7 @@ module beadmob_friction_job
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
-  use beadmob_lubrication, only: lubrication_table_t, make_lubrication_table, add_lubrication, reference_order
+  use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
@@ -42,6 +42,9 @@ module beadmob_friction_job
     !> Pairs within the same cube of this edge (lattice cells) enter it too; 0 = none.
     integer :: near_field_cluster = 0
     logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
+    !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
+    !> table_cache.f90): a cached run gives the same numbers to the last bit.
+    character(len=1024) :: cache_file = ''
   end type friction_settings_t
 
   type :: friction_result_t
@@ -56,6 +59,8 @@ module beadmob_friction_job
     integer(i8) :: near_field_pairs = 0            ! pair blocks in the preconditioning matrix
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0
+    integer(i8) :: cached_blocks = 0               ! lattice blocks read from the table cache
+    character(len=1024) :: cache_file = ''         ! the table cache used ('' = none)
     integer :: lubrication_pairs = 0
     integer :: lubrication_reference_order = 0
     type(lubrication_table_t) :: lubrication_table
@@ -110,7 +115,9 @@ contains
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
+    result%cache_file = settings%cache_file
     if (result%operator_name == 'fft') then
+      fft_op%table%cache_file = trim(settings%cache_file)   ! read by make_block_table
       fft_op%measure_plans = settings%fft_planner == 'measure'
       call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err)
       call agree_on_error(ctx, err)
@@ -121,8 +128,10 @@ contains
       end if
       result%on_lattice = fft_op%table%on_lattice
       result%computed_blocks = fft_op%table%computed_blocks
+      result%cached_blocks = fft_op%table%cached_blocks
       self = fft_op%self_block
     else
+      direct_op%table%cache_file = trim(settings%cache_file)
       call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
       call agree_on_error(ctx, err)
       if (err%failed) then
@@ -131,6 +140,7 @@ contains
       end if
       result%on_lattice = direct_op%table%on_lattice
       result%computed_blocks = direct_op%table%computed_blocks
+      result%cached_blocks = direct_op%table%cached_blocks
       self = direct_op%self_block
     end if
     call mark(1)
@@ -170,9 +180,10 @@ contains
 
     result%friction = result%multipole_friction
     if (settings%lubrication) then
-      ! Every rank builds the same small table; the pair sum is split by rows.
-      call make_lubrication_table(settings%order, settings%potential_order, centres, &
-                                  settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), result%lubrication_table, err)
+      ! Every rank gets the same small table; the pair sum is split by rows.
+      call make_shared_lubrication_table(ctx%comm, settings%order, settings%potential_order, centres, &
+                                         settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), trim(settings%cache_file), &
+                                         result%lubrication_table, err)
       call agree_on_error(ctx, err)
       if (err%failed) then
         PetscCallA(PetscLogStagePop(ierr))
