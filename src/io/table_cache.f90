@@ -81,20 +81,21 @@ contains
     call open_entry(path, 'blocks', key, file_id, entry, found, err)
     if (found .and. .not. err%failed) then
       n = -1
-      call open_dataset(entry, 'displacements', [3, -1], dataset, n, err)
+      call open_dataset(entry, '/blocks/' // key%name, 'displacements', [3, -1], dataset, n, err)
       if (.not. err%failed) then
         deallocate (displacements)
         allocate (displacements(3, n))
         call h5dread_f(dataset, H5T_NATIVE_INTEGER, displacements, int(shape(displacements), hsize_t), status)
-        call check(status, 'read dataset displacements', err)
+        call check(status, 'read dataset displacements of entry /blocks/' // key%name // ' (damaged file?)', err)
         call h5dclose_f(dataset, status)
       end if
-      if (.not. err%failed) call open_dataset(entry, 'blocks', [block_size, block_size, -1], dataset, n, err)
+      if (.not. err%failed) &
+        call open_dataset(entry, '/blocks/' // key%name, 'blocks', [block_size, block_size, -1], dataset, n, err)
       if (.not. err%failed) then
         deallocate (blocks)
         allocate (blocks(block_size, block_size, n))
         call h5dread_f(dataset, H5T_NATIVE_DOUBLE, blocks, int(shape(blocks), hsize_t), status)
-        call check(status, 'read dataset blocks', err)
+        call check(status, 'read dataset blocks of entry /blocks/' // key%name // ' (damaged file?)', err)
         call h5dclose_f(dataset, status)
       end if
       if (.not. err%failed) then
@@ -137,20 +138,21 @@ contains
     call open_entry(path, 'lubrication', key, file_id, entry, found, err)
     if (found .and. .not. err%failed) then
       n = -1
-      call open_dataset(entry, 'distances', [-1], dataset, n, err)
+      call open_dataset(entry, '/lubrication/' // key%name, 'distances', [-1], dataset, n, err)
       if (.not. err%failed) then
         deallocate (distances)
         allocate (distances(n))
         call h5dread_f(dataset, H5T_NATIVE_DOUBLE, distances, [int(n, hsize_t)], status)
-        call check(status, 'read dataset distances', err)
+        call check(status, 'read dataset distances of entry /lubrication/' // key%name // ' (damaged file?)', err)
         call h5dclose_f(dataset, status)
       end if
-      if (.not. err%failed) call open_dataset(entry, 'corrections', [4, -1], dataset, n, err)
+      if (.not. err%failed) &
+        call open_dataset(entry, '/lubrication/' // key%name, 'corrections', [4, -1], dataset, n, err)
       if (.not. err%failed) then
         deallocate (corrections)
         allocate (corrections(4, n))
         call h5dread_f(dataset, H5T_NATIVE_DOUBLE, corrections, int(shape(corrections), hsize_t), status)
-        call check(status, 'read dataset corrections', err)
+        call check(status, 'read dataset corrections of entry /lubrication/' // key%name // ' (damaged file?)', err)
         call h5dclose_f(dataset, status)
       end if
       if (.not. err%failed) then
@@ -267,12 +269,12 @@ contains
     integer(hid_t), intent(out) :: file_id
     type(error_t), intent(inout) :: err
     integer(hid_t) :: access
-    integer :: status, version
+    integer :: status, closed, version
     character(len=:), allocatable :: format
     access = file_access()
     call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, status, access_prp=access)
-    call h5pclose_f(access, status)
-    if (file_id < 0 .or. status < 0) then
+    call h5pclose_f(access, closed)
+    if (status < 0) then
       file_id = -1
       call raise(err, 'not readable as an HDF5 file')
       return
@@ -323,15 +325,15 @@ contains
     if (err%failed) return
     call read_text_attribute(entry, 'key', stored, err)
     if (.not. err%failed .and. stored /= key%text) &
-      call raise(err, 'entry /' // section // '/' // key%name // " was made with other parameters ('" // stored // &
-                 "'; this run: '" // key%text // "')")
+      call raise(err, 'entry /' // section // '/' // key%name // " was made with other parameters (its key: '" // &
+                 stored // "')")
   end subroutine open_entry
 
   !> Open dataset `name` of `entry` and check its shape against `expected`, where -1 marks the
   !> entry count n: returned when n < 0 on entry, else the dataset must agree with it.
-  subroutine open_dataset(entry, name, expected, dataset, n, err)
+  subroutine open_dataset(entry, where, name, expected, dataset, n, err)
     integer(hid_t), intent(in) :: entry
-    character(len=*), intent(in) :: name
+    character(len=*), intent(in) :: where, name   ! where: the entry's path, for messages
     integer, intent(in) :: expected(:)
     integer(hid_t), intent(out) :: dataset
     integer, intent(inout) :: n
@@ -342,7 +344,7 @@ contains
     logical :: fits
     call h5dopen_f(entry, name, dataset, status)
     if (status < 0) then
-      call raise(err, 'cannot open dataset ' // name)
+      call raise(err, 'cannot open dataset ' // name // ' of entry ' // where)
       return
     end if
     call h5dget_space_f(dataset, space, status)
@@ -364,7 +366,7 @@ contains
       end do
     end if
     if (.not. fits) then
-      call raise(err, 'dataset ' // name // ' has an unexpected shape')
+      call raise(err, 'dataset ' // name // ' of entry ' // where // ' has an unexpected shape')
       call h5dclose_f(dataset, status)
     end if
   end subroutine open_dataset
@@ -432,13 +434,13 @@ contains
     integer(hid_t), intent(out) :: file_id, entry
     type(error_t), intent(inout) :: err
     integer(hid_t) :: access, group
-    integer :: status, s
+    integer :: status, closed, s
     ! The process id keeps concurrent runs from sharing a temporary file.
     temporary = path // '.tmp' // str(int(c_getpid()))
     entry = -1
     access = file_access()
     call h5fcreate_f(temporary, H5F_ACC_TRUNC_F, file_id, status, access_prp=access)
-    call h5pclose_f(access, status)
+    call h5pclose_f(access, closed)
     if (status < 0) then
       file_id = -1
       call raise(err, "cannot create '" // temporary // "'")

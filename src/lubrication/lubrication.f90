@@ -129,7 +129,7 @@ contains
     real(dp), allocatable :: found(:), cached_distances(:), cached(:, :), computed(:, :), gathered(:, :)
     integer, allocatable :: missing(:), counts(:), offsets(:), flags(:)
     integer :: rank, n_ranks, ierr, j, k, h, n, n_missing, mine, failed_here, failed_anywhere
-    type(error_t) :: cache_err
+    type(error_t) :: cache_err, write_err
 
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
@@ -194,8 +194,8 @@ contains
       call write_cached_lubrication(cache_file, lubrication_cache_key(order, potential_order), &
                                     [cached_distances, found(missing)], &
                                     reshape([cached, gathered(:, 1:n_missing)], [4, size(cached_distances) + n_missing]), &
-                                    cache_err)
-      if (cache_err%failed) call warn_cache(cache_file, 'not updated: ' // cache_err%message)
+                                    write_err)
+      if (write_err%failed) call warn_cache(cache_file, 'not updated: ' // write_err%message)
     end if
   end subroutine make_shared_lubrication_table
 

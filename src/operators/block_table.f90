@@ -133,7 +133,7 @@ contains
                              cached(:, :, :)
     logical, allocatable :: known(:)
     logical :: caching
-    type(error_t) :: cache_err
+    type(error_t) :: cache_err, write_err
     real(dp) :: bytes
 
     nb = basis%size
@@ -200,8 +200,8 @@ contains
       call write_cached_blocks(table%cache_file, block_cache_key(basis), &
                                reshape([cached_list, canonical_list(:, missing)], [3, size(cached_list, 2) + n_missing]), &
                                reshape([cached, gathered(:, :, 1:n_missing)], [nb, nb, size(cached, 3) + n_missing]), &
-                               cache_err)
-      if (cache_err%failed) call warn_cache(table%cache_file, 'not updated: ' // cache_err%message)
+                               write_err)
+      if (write_err%failed) call warn_cache(table%cache_file, 'not updated: ' // write_err%message)
     end if
     deallocate (gathered)
 
