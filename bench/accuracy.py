@@ -1,0 +1,204 @@
+#!/usr/bin/env python3
+"""Run time against error (issue 7): every accuracy knob of beadmob on the paper shapes and a
+filled sphere, each setting's error taken against a reference run with the tightest settings that
+fit (stated in the output).
+
+    python3 bench/accuracy.py [--shapes a,b,...] [--repeats 3] [--exe build/beadmob] [--force]
+
+Runs go to bench/accuracy_runs/ (kept: a second call only runs what is missing); writes
+bench/accuracy.csv (one row per shape and setting), bench/accuracy.md (tables, the Pareto front,
+convergence in L with and without the lubrication correction) and bench/accuracy_pareto.png.
+
+Error measure: the paper's five coefficients mu11, mu22, mu33, mu42, mu51 (body frame,
+normalised as in the paper); err = max_k |mu_k - mu_k(ref)| / scale_k, with scale_k = |mu_k(ref)|
+for the translational ones and max(|mu_k(ref)|, 0.1 mu33(ref)) for the couplings (a body without
+coupling, the sphere, would otherwise divide by ~0). Each run yields two friction matrices (the
+order-L one and the one with the lubrication correction), compared with the same in the reference.
+"""
+import argparse
+import csv
+import os
+import subprocess
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNS = ROOT / "bench" / "accuracy_runs"
+PAPER_SHAPES = ["cone", "crescent_moon", "arrowhead", "ring_1mm", "ring_2mm", "ring_3mm", "ring_4mm"]
+EXTRA_SHAPES = {"sphere": "&shape name = 'sphere', radius = 10 /",
+                # not in the tuning data: the check of --accuracy on unseen shapes
+                "torus": "&shape name = 'torus', major_radius = 14, minor_radius = 4 /",
+                "spheroid": "&shape name = 'spheroid', semi_axes = 18, 8, 8 /"}
+REFERENCE = "L4_tight"
+# label -> (&hydrodynamics entries, extra command-line options)
+SETTINGS = {
+    "L4_tight": ("multipole_order = 4", "-ksp_rtol 1e-9"),
+    "L3_tight": ("multipole_order = 3", "-ksp_rtol 1e-9"),
+    "L2_tight": ("multipole_order = 2", "-ksp_rtol 1e-9"),
+    "L1_tight": ("multipole_order = 1", "-ksp_rtol 1e-9"),
+    "L3_default": ("multipole_order = 3", ""),
+    "L2_default": ("multipole_order = 2", ""),
+    "L1_default": ("multipole_order = 1", ""),
+    "L2_rtol1e-2": ("multipole_order = 2", "-ksp_rtol 1e-2"),
+    "L2_rtol1e-3": ("multipole_order = 2", "-ksp_rtol 1e-3"),
+    "L1_rtol1e-2": ("multipole_order = 1", "-ksp_rtol 1e-2"),
+    "L2_shell1": ("multipole_order = 2, shell_layers = 1", ""),
+    "L2_shell2": ("multipole_order = 2, shell_layers = 2", ""),
+    "L2_direct": ("multipole_order = 2", "-operator direct"),
+}
+NAMES = ["mu11", "mu22", "mu33", "mu42", "mu51"]
+
+
+def shape_group(shape):
+    if shape in EXTRA_SHAPES:
+        return EXTRA_SHAPES[shape]
+    text = (ROOT / "shapes" / f"{shape}.nml").read_text()
+    start = text.index("&shape")
+    return text[start:text.index("/", start) + 1]
+
+
+def run(exe, shape, label, repeats, force):
+    """Runs beadmob for (shape, setting) `repeats` times; returns the wall times (s)."""
+    RUNS.mkdir(parents=True, exist_ok=True)
+    tag = f"{shape}_{label}"
+    h5, times_file = RUNS / f"{tag}.h5", RUNS / f"{tag}.times"
+    if not force and h5.exists() and times_file.exists():
+        return [float(t) for t in times_file.read_text().split()]
+    hydro, options = SETTINGS[label]
+    (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n"
+                                     f"&hydrodynamics {hydro}, lubrication = .true. /\n")
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    walls = []
+    for _ in range(repeats if label != REFERENCE else 1):
+        start = time.perf_counter()
+        with open(RUNS / f"{tag}.log", "w") as log:
+            subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options.split()], cwd=RUNS,
+                           stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
+        walls.append(time.perf_counter() - start)
+    times_file.write_text(" ".join(f"{w:.3f}" for w in walls))
+    print(f"accuracy: {tag} {np.median(walls):.1f} s", flush=True)
+    return walls
+
+
+def read(shape, label):
+    with h5py.File(RUNS / f"{shape}_{label}.h5") as f:
+        g = f["hydrodynamics"]
+        return dict(plain=np.asarray(g["multipole_coefficients"][()]), lubricated=np.asarray(g["coefficients"][()]),
+                    iterations=int(np.sum(g.attrs["solve_iterations"])), n=int(f["geometry"].attrs["n_beads"]),
+                    hydro_beads=int(g.attrs.get("hydrodynamic_beads", f["geometry"].attrs["n_beads"])),
+                    converged=bool(g.attrs["all_converged"]))
+
+
+def error(values, reference):
+    scale = np.abs(reference).astype(float)
+    scale[3:] = np.maximum(scale[3:], 0.1 * abs(reference[2]))
+    return float(np.max(np.abs(values - reference) / scale))
+
+
+def pareto_front(points):
+    """Indices of the (time, error) points no other point beats in both."""
+    front = []
+    for i, (t, e) in enumerate(points):
+        if not any((t2 <= t and e2 <= e) and (t2 < t or e2 < e) for t2, e2 in points):
+            front.append(i)
+    return front
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--shapes", default=",".join(PAPER_SHAPES + ["sphere"]))
+    parser.add_argument("--settings", default=",".join(SETTINGS))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--exe", default=str(Path(os.environ.get("BUILD_DIR", ROOT / "build")) / "beadmob"))
+    parser.add_argument("--force", action="store_true")
+    args = parser.parse_args()
+    shapes, labels = args.shapes.split(","), args.settings.split(",")
+    if REFERENCE not in labels:
+        labels.insert(0, REFERENCE)
+    rows = []
+    for shape in shapes:
+        walls = {label: run(args.exe, shape, label, args.repeats, args.force) for label in labels}
+        reference = read(shape, REFERENCE)
+        for label in labels:
+            r = read(shape, label)
+            for friction in ("plain", "lubricated"):
+                rows.append(dict(shape=shape, setting=label, friction=friction, n_beads=r["n"],
+                                 hydrodynamic_beads=r["hydro_beads"], wall_s=float(np.median(walls[label])),
+                                 wall_min_s=min(walls[label]), wall_max_s=max(walls[label]), runs=len(walls[label]),
+                                 iterations=r["iterations"], converged=r["converged"],
+                                 error=error(r[friction], reference[friction]),
+                                 **{name: v for name, v in zip(NAMES, r[friction])}))
+    with open(ROOT / "bench" / "accuracy.csv", "w", newline="") as out:
+        writer = csv.DictWriter(out, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    write_summary(rows, shapes, labels)
+
+
+def write_summary(rows, shapes, labels):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plain = [r for r in rows if r["friction"] == "plain" and r["setting"] != REFERENCE]
+    lines = ["# Run time against error (generated by `python3 bench/accuracy.py`)", "",
+             f"Reference per shape: `{REFERENCE}` = {SETTINGS[REFERENCE][0]}, {SETTINGS[REFERENCE][1]} (the tightest",
+             "settings that fit this machine in minutes). Error: largest relative change of the paper's five",
+             "coefficients against the reference (couplings relative to max(|mu|, 0.1 mu33)); wall time of the",
+             "whole run on 2 ranks, median of the repeated runs (the reference: one run).", "",
+             "## Error and time per setting (order-L friction, without the lubrication correction)", "",
+             "| setting | " + " | ".join(shapes) + " | median time ratio to L2_default |",
+             "|---|" + "---|" * (len(shapes) + 1)]
+    for label in labels:
+        if label == REFERENCE:
+            continue
+        cells, ratios = [], []
+        for shape in shapes:
+            r = next(x for x in plain if x["shape"] == shape and x["setting"] == label)
+            base = next(x for x in plain if x["shape"] == shape and x["setting"] == "L2_default")
+            cells.append(f"{r['error']:.1e} / {r['wall_s']:.1f} s")
+            ratios.append(r["wall_s"] / base["wall_s"])
+        lines.append(f"| {label} | " + " | ".join(cells) + f" | {np.median(ratios):.2f} |")
+
+    lines += ["", "## Pareto front (per shape: the settings no other setting beats in both time and error)", ""]
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for shape in shapes:
+        pts = [x for x in plain if x["shape"] == shape]
+        front = pareto_front([(x["wall_s"], x["error"]) for x in pts])
+        on_front = sorted((pts[i] for i in front), key=lambda x: x["wall_s"])
+        default_on = any(x["setting"] == "L2_default" for x in on_front)
+        lines.append(f"- {shape}: " + ", ".join(f"{x['setting']} ({x['error']:.1e}, {x['wall_s']:.1f} s)"
+                                               for x in on_front)
+                     + ("" if default_on else "  **(default not on the front)**"))
+        line, = ax.loglog([x["wall_s"] for x in on_front], [max(x["error"], 1e-12) for x in on_front], "-", alpha=0.6)
+        ax.loglog([x["wall_s"] for x in pts], [max(x["error"], 1e-12) for x in pts], "o", color=line.get_color(),
+                  ms=3, label=shape)
+        default = next(x for x in pts if x["setting"] == "L2_default")
+        ax.loglog([default["wall_s"]], [max(default["error"], 1e-12)], "*", color=line.get_color(), ms=10)
+    ax.set_xlabel("wall time, 2 ranks (s)")
+    ax.set_ylabel("max relative coefficient error")
+    ax.set_title("Settings against the L = 4 reference (star: default)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(ROOT / "bench" / "accuracy_pareto.png", dpi=120)
+
+    lines += ["", "![Pareto plot](accuracy_pareto.png)", "",
+              "## Convergence in L, with and without the lubrication correction (tight tolerance)", "",
+              "| shape | friction | L = 1 | L = 2 | L = 3 |", "|---|---|---|---|---|"]
+    for shape in shapes:
+        for friction in ("plain", "lubricated"):
+            errs = []
+            for order in (1, 2, 3):
+                match = [x for x in rows if x["shape"] == shape and x["setting"] == f"L{order}_tight"
+                         and x["friction"] == friction]
+                errs.append(f"{match[0]['error']:.1e}" if match else "")
+            lines.append(f"| {shape} | {friction} | " + " | ".join(errs) + " |")
+    (ROOT / "bench" / "accuracy.md").write_text("\n".join(lines) + "\n")
+    print("wrote bench/accuracy.md, bench/accuracy.csv, bench/accuracy_pareto.png")
+
+
+if __name__ == "__main__":
+    main()
