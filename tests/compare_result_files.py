@@ -18,6 +18,10 @@ import numpy as np
 RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes"}
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction"}
+#: Eigenvalues, condition number and asymmetry of the friction (friction_diagnostics.f90): derived
+#: from the friction compared above, they differ in the last bits; their 0/1 flags are compared.
+SOLVER_DIAGNOSTICS |= {f"{prefix}_{name}" for prefix in ("friction", "multipole_friction")
+                       for name in ("asymmetry", "condition_number", "eigenvalues", "min_eigenvalue")}
 SOLVER_RESULTS = {"friction", "multipole_friction", "centre_of_mobility"}
 #: Derived from the inverse of the friction: a relative difference d in zeta can grow to cond(zeta) d
 #: (cond ~ 10-100 for these bodies), so these are compared at 100 x the solver tolerance.

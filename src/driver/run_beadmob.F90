@@ -2,6 +2,7 @@
 !> one rank ends in `agree_on_error`, so the ranks always stop together with one message.
 module beadmob_run
   use, intrinsic :: iso_fortran_env, only: error_unit
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -14,6 +15,7 @@ module beadmob_run
   use beadmob_result_file, only: write_result_file
   use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
   use beadmob_mobility, only: mobility_result_t, compute_mobility
+  use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   implicit none
   private
   public :: run_beadmob, read_input_file
@@ -70,12 +72,29 @@ contains
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
-      call compute_mobility(hydro%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, &
-                            err)
-      if (err%failed) return   ! same replicated friction on every rank: same outcome
-      hydro%multipole_coefficients = mobility%coefficients
-      call compute_mobility(hydro%friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, err)
-      if (err%failed) return
+      ! Flagged in the file and on stderr, never hidden (docs/stress_tests.md); a non-finite
+      ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
+      hydro%diagnostics = diagnose_friction(hydro%friction)
+      hydro%multipole_diagnostics = diagnose_friction(hydro%multipole_friction)
+      if (ctx%rank == 0) then
+        if (config%hydrodynamics%lubrication) call warn(friction_warning(hydro%multipole_diagnostics, &
+                                                                         'the order-L friction matrix'))
+        call warn(friction_warning(hydro%diagnostics, 'the friction matrix'))
+      end if
+      if (hydro%multipole_diagnostics%finite) then
+        call compute_mobility(hydro%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, &
+                              mobility, err)
+        if (err%failed) return   ! same replicated friction on every rank: same outcome
+        hydro%multipole_coefficients = mobility%coefficients
+      else
+        hydro%multipole_coefficients = ieee_value(1.0_dp, ieee_quiet_nan)
+      end if
+      if (hydro%diagnostics%finite) then
+        call compute_mobility(hydro%friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, err)
+        if (err%failed) return
+      else
+        mobility = undefined_mobility(hydro%friction)
+      end if
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
     else
       call write_result_file(ctx, config, model, frame, err)
@@ -111,6 +130,28 @@ contains
       'beadmob: warning: not every Krylov solve converged (reasons ', hydro%solves%converged_reason, &
       '); the result file flags it: /hydrodynamics all_converged = 0'
   end subroutine print_mobility
+
+  subroutine warn(text)
+    character(len=*), intent(in) :: text
+    if (len(text) > 0) write (error_unit, '(a)') 'beadmob: warning: ' // text
+  end subroutine warn
+
+  !> The mobility of a non-finite friction: every derived quantity NaN (quiet: no trap).
+  function undefined_mobility(friction) result(mobility)
+    real(dp), intent(in) :: friction(6, 6)
+    type(mobility_result_t) :: mobility
+    real(dp) :: nan
+    nan = ieee_value(1.0_dp, ieee_quiet_nan)
+    mobility%friction = friction
+    mobility%mobility = nan
+    mobility%symmetry_error = nan
+    mobility%body_axes = nan
+    mobility%body_mobility = nan
+    mobility%coefficients = nan
+    mobility%off_pattern = nan
+    mobility%centre_of_mobility = nan
+    mobility%mobility_at_centre = nan
+  end function undefined_mobility
 
   !> BEADMOB_CACHE ('' when unset), as rank 0 sees it: the ranks must agree on caching.
   function environment_cache_file(ctx) result(path)

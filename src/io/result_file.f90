@@ -16,6 +16,7 @@ module beadmob_result_file
   use beadmob_mobility, only: mobility_result_t
   use beadmob_rigid_body_solve, only: motion_names
   use beadmob_friction_job, only: friction_result_t, phase_names
+  use beadmob_friction_diagnostics, only: friction_diagnostics_t, condition_threshold, asymmetry_threshold
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -163,6 +164,10 @@ contains
     call write_attribute(group, 'units', 'eta = 1, lengths in d; friction maps (U, Omega) to (F, T)', err)
     call write_attribute(group, 'reference_point', 'centre of mass', err)
     call write_attribute(group, 'symmetry_error', mobility%symmetry_error, err)
+    call write_diagnostics(group, 'friction', hydro%diagnostics, err)
+    call write_diagnostics(group, 'multipole_friction', hydro%multipole_diagnostics, err)
+    call write_attribute(group, 'friction_condition_threshold', condition_threshold, err)
+    call write_attribute(group, 'friction_asymmetry_threshold', asymmetry_threshold, err)
     call write_attribute(group, 'off_pattern', mobility%off_pattern, err)
     call write_attribute(group, 'z_reversed', merge(1, 0, mobility%z_reversed), err)
     call write_attribute(group, 'coefficient_names', 'mu11 mu22 mu33 mu42 mu51', err)
@@ -225,6 +230,23 @@ contains
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
+
+  !> <prefix>_finite, _positive_definite, _symmetric, _well_conditioned (0/1), _condition_number,
+  !> _min_eigenvalue, _eigenvalues (of the symmetric part), _asymmetry: friction_diagnostics.f90.
+  subroutine write_diagnostics(group, prefix, diag, err)
+    integer(hid_t), intent(in) :: group
+    character(len=*), intent(in) :: prefix
+    type(friction_diagnostics_t), intent(in) :: diag
+    type(error_t), intent(inout) :: err
+    call write_attribute(group, prefix // '_finite', merge(1, 0, diag%finite), err)
+    call write_attribute(group, prefix // '_positive_definite', merge(1, 0, diag%positive_definite), err)
+    call write_attribute(group, prefix // '_symmetric', merge(1, 0, diag%symmetric), err)
+    call write_attribute(group, prefix // '_well_conditioned', merge(1, 0, diag%well_conditioned), err)
+    call write_attribute(group, prefix // '_condition_number', diag%condition_number, err)
+    call write_attribute(group, prefix // '_min_eigenvalue', diag%eigenvalues(1), err)
+    call write_attribute(group, prefix // '_eigenvalues', diag%eigenvalues, err)
+    call write_attribute(group, prefix // '_asymmetry', diag%asymmetry, err)
+  end subroutine write_diagnostics
 
   function timestamp() result(text)
     character(len=:), allocatable :: text

@@ -18,6 +18,7 @@ module beadmob_friction_job
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
+  use beadmob_friction_diagnostics, only: friction_diagnostics_t
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
@@ -51,6 +52,8 @@ module beadmob_friction_job
     real(dp) :: friction(6, 6) = 0.0_dp           ! with lubrication when asked for
     real(dp) :: multipole_friction(6, 6) = 0.0_dp ! order L alone
     real(dp) :: multipole_coefficients(5) = 0.0_dp ! the paper's coefficients of the order-L friction alone
+    !> Health of friction and multipole_friction (set by the driver, friction_diagnostics.f90)
+    type(friction_diagnostics_t) :: diagnostics, multipole_diagnostics
     type(solve_statistics_t) :: solves
     integer :: unknowns_per_bead = 0
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
