@@ -3,11 +3,14 @@
 filled sphere, each setting's error taken against a reference run with the tightest settings that
 fit (stated in the output).
 
-    python3 bench/accuracy.py [--shapes a,b,...] [--repeats 3] [--exe build/beadmob] [--force]
+    python3 bench/accuracy.py [--shapes a,b,...] [--settings s,t,...] [--reference L3_tight]
+                              [--name accuracy] [--repeats 3] [--exe build/beadmob] [--force]
 
 Runs go to bench/accuracy_runs/ (kept: a second call only runs what is missing); writes
-bench/accuracy.csv (one row per shape and setting), bench/accuracy.md (tables, the Pareto front,
-convergence in L with and without the lubrication correction) and bench/accuracy_pareto.png.
+bench/NAME.csv (one row per shape and setting), bench/NAME.md (tables, the Pareto front,
+convergence in L with and without the lubrication correction) and bench/NAME_pareto.png.
+The Krylov tolerance study: --name solver_tolerance --reference L2_tight
+--settings L2_rtol1e-2,L2_default,L2_rtol1e-4,L2_rtol1e-5,L2_rtol1e-6.
 
 Error measure: the paper's five coefficients mu11, mu22, mu33, mu42, mu51 (body frame,
 normalised as in the paper); err = max_k |mu_k - mu_k(ref)| / scale_k, with scale_k = |mu_k(ref)|
@@ -32,7 +35,6 @@ EXTRA_SHAPES = {"sphere": "&shape name = 'sphere', radius = 10 /",
                 # not in the tuning data: the check of --accuracy on unseen shapes
                 "torus": "&shape name = 'torus', major_radius = 14, minor_radius = 4 /",
                 "spheroid": "&shape name = 'spheroid', semi_axes = 18, 8, 8 /"}
-REFERENCE = "L4_tight"
 # label -> (&hydrodynamics entries, extra command-line options)
 SETTINGS = {
     "L4_tight": ("multipole_order = 4", "-ksp_rtol 1e-9"),
@@ -43,7 +45,9 @@ SETTINGS = {
     "L2_default": ("multipole_order = 2", ""),
     "L1_default": ("multipole_order = 1", ""),
     "L2_rtol1e-2": ("multipole_order = 2", "-ksp_rtol 1e-2"),
-    "L2_rtol1e-3": ("multipole_order = 2", "-ksp_rtol 1e-3"),
+    "L2_rtol1e-4": ("multipole_order = 2", "-ksp_rtol 1e-4"),
+    "L2_rtol1e-5": ("multipole_order = 2", "-ksp_rtol 1e-5"),
+    "L2_rtol1e-6": ("multipole_order = 2", "-ksp_rtol 1e-6"),
     "L1_rtol1e-2": ("multipole_order = 1", "-ksp_rtol 1e-2"),
     "L2_shell1": ("multipole_order = 2, shell_layers = 1", ""),
     "L2_shell2": ("multipole_order = 2, shell_layers = 2", ""),
@@ -60,7 +64,7 @@ def shape_group(shape):
     return text[start:text.index("/", start) + 1]
 
 
-def run(exe, shape, label, repeats, force):
+def run(exe, shape, label, repeats, force, reference):
     """Runs beadmob for (shape, setting) `repeats` times; returns the wall times (s)."""
     RUNS.mkdir(parents=True, exist_ok=True)
     tag = f"{shape}_{label}"
@@ -72,7 +76,7 @@ def run(exe, shape, label, repeats, force):
                                      f"&hydrodynamics {hydro}, lubrication = .true. /\n")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     walls = []
-    for _ in range(repeats if label != REFERENCE else 1):
+    for _ in range(repeats if label != reference else 1):
         start = time.perf_counter()
         with open(RUNS / f"{tag}.log", "w") as log:
             subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options.split()], cwd=RUNS,
@@ -110,18 +114,20 @@ def pareto_front(points):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--shapes", default=",".join(PAPER_SHAPES + ["sphere"]))
-    parser.add_argument("--settings", default=",".join(SETTINGS))
+    parser.add_argument("--settings", default=",".join(label for label in SETTINGS if label != "L4_tight"))
+    parser.add_argument("--reference", default="L3_tight", choices=list(SETTINGS))
+    parser.add_argument("--name", default="accuracy")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--exe", default=str(Path(os.environ.get("BUILD_DIR", ROOT / "build")) / "beadmob"))
     parser.add_argument("--force", action="store_true")
     args = parser.parse_args()
     shapes, labels = args.shapes.split(","), args.settings.split(",")
-    if REFERENCE not in labels:
-        labels.insert(0, REFERENCE)
+    if args.reference not in labels:
+        labels.insert(0, args.reference)
     rows = []
     for shape in shapes:
-        walls = {label: run(args.exe, shape, label, args.repeats, args.force) for label in labels}
-        reference = read(shape, REFERENCE)
+        walls = {label: run(args.exe, shape, label, args.repeats, args.force, args.reference) for label in labels}
+        reference = read(shape, args.reference)
         for label in labels:
             r = read(shape, label)
             for friction in ("plain", "lubricated"):
@@ -131,29 +137,31 @@ def main():
                                  iterations=r["iterations"], converged=r["converged"],
                                  error=error(r[friction], reference[friction]),
                                  **{name: v for name, v in zip(NAMES, r[friction])}))
-    with open(ROOT / "bench" / "accuracy.csv", "w", newline="") as out:
+    with open(ROOT / "bench" / f"{args.name}.csv", "w", newline="") as out:
         writer = csv.DictWriter(out, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    write_summary(rows, shapes, labels)
+    write_summary(rows, shapes, labels, args.reference, args.name)
 
 
-def write_summary(rows, shapes, labels):
+def write_summary(rows, shapes, labels, reference, name):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plain = [r for r in rows if r["friction"] == "plain" and r["setting"] != REFERENCE]
-    lines = ["# Run time against error (generated by `python3 bench/accuracy.py`)", "",
-             f"Reference per shape: `{REFERENCE}` = {SETTINGS[REFERENCE][0]}, {SETTINGS[REFERENCE][1]} (the tightest",
-             "settings that fit this machine in minutes). Error: largest relative change of the paper's five",
+    plain = [r for r in rows if r["friction"] == "plain" and r["setting"] != reference]
+    command = f"python3 bench/accuracy.py --name {name} --reference {reference} --shapes {','.join(shapes)} " \
+              f"--settings {','.join(label for label in labels if label != reference)}"
+    lines = [f"# Run time against error (generated by `{command}`)", "",
+             f"Reference per shape: `{reference}` = {SETTINGS[reference][0]}, {SETTINGS[reference][1]}.",
+             "Error: largest relative change of the paper's five",
              "coefficients against the reference (couplings relative to max(|mu|, 0.1 mu33)); wall time of the",
              "whole run on 2 ranks, median of the repeated runs (the reference: one run).", "",
              "## Error and time per setting (order-L friction, without the lubrication correction)", "",
              "| setting | " + " | ".join(shapes) + " | median time ratio to L2_default |",
              "|---|" + "---|" * (len(shapes) + 1)]
     for label in labels:
-        if label == REFERENCE:
+        if label == reference:
             continue
         cells, ratios = [], []
         for shape in shapes:
@@ -180,12 +188,12 @@ def write_summary(rows, shapes, labels):
         ax.loglog([default["wall_s"]], [max(default["error"], 1e-12)], "*", color=line.get_color(), ms=10)
     ax.set_xlabel("wall time, 2 ranks (s)")
     ax.set_ylabel("max relative coefficient error")
-    ax.set_title("Settings against the L = 4 reference (star: default)")
+    ax.set_title(f"Settings against {reference} (star: default)")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(ROOT / "bench" / "accuracy_pareto.png", dpi=120)
+    fig.savefig(ROOT / "bench" / f"{name}_pareto.png", dpi=120)
 
-    lines += ["", "![Pareto plot](accuracy_pareto.png)", "",
+    lines += ["", f"![Pareto plot]({name}_pareto.png)", "",
               "## Convergence in L, with and without the lubrication correction (tight tolerance)", "",
               "| shape | friction | L = 1 | L = 2 | L = 3 |", "|---|---|---|---|---|"]
     for shape in shapes:
@@ -196,8 +204,8 @@ def write_summary(rows, shapes, labels):
                          and x["friction"] == friction]
                 errs.append(f"{match[0]['error']:.1e}" if match else "")
             lines.append(f"| {shape} | {friction} | " + " | ".join(errs) + " |")
-    (ROOT / "bench" / "accuracy.md").write_text("\n".join(lines) + "\n")
-    print("wrote bench/accuracy.md, bench/accuracy.csv, bench/accuracy_pareto.png")
+    (ROOT / "bench" / f"{name}.md").write_text("\n".join(lines) + "\n")
+    print(f"wrote bench/{name}.md, bench/{name}.csv, bench/{name}_pareto.png")
 
 
 if __name__ == "__main__":

@@ -68,6 +68,7 @@ contains
       settings%lubrication = config%hydrodynamics%lubrication
       settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
       settings%bead_forces = config%hydrodynamics%bead_forces
+      settings%shell_layers = config%hydrodynamics%shell_layers
       settings%cache_file = config%hydrodynamics%cache_file
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
@@ -113,6 +114,8 @@ contains
       ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
       str(hydro%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
       lubrication_summary(config%hydrodynamics%lubrication, hydro%lubrication_pairs)
+    if (config%hydrodynamics%shell_layers > 0) write (*, '(a)') '  shell model: ' // str(hydro%hydrodynamic_beads) // &
+      ' beads within ' // str(config%hydrodynamics%shell_layers) // ' layer(s) of the surface'
     write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
       ', preconditioner ' // trim(hydro%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations

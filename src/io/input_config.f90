@@ -57,6 +57,8 @@ module beadmob_input_config
     !> HDF5 table cache of the lattice blocks and lubrication corrections (relative paths: to the
     !> working directory); '' = the environment variable BEADMOB_CACHE, else no cache.
     character(len=1024) :: cache_file = ''
+    !> Shell model: only the beads within this many layers of the surface take part (0 = all).
+    integer :: shell_layers = 0
   end type hydrodynamics_config_t
 
   type :: run_config_t
@@ -147,12 +149,13 @@ contains
     character(len=*), intent(in) :: lines(:), source
     type(hydrodynamics_config_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
-    integer :: multipole_order, potential_order, status
+    integer :: multipole_order, potential_order, shell_layers, status
     logical :: lubrication, bead_forces
     real(dp) :: lubrication_cutoff
     character(len=1024) :: cache_file
     character(len=512) :: message
-    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file
+    namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
+                             shell_layers
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -162,6 +165,7 @@ contains
     lubrication_cutoff = hydro%lubrication_cutoff
     bead_forces = hydro%bead_forces
     cache_file = hydro%cache_file
+    shell_layers = hydro%shell_layers
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -179,6 +183,8 @@ contains
     else if (.not. (lubrication_cutoff >= 1.0_dp .and. lubrication_cutoff <= 10.0_dp)) then
       call raise(err, source // ': &hydrodynamics lubrication_cutoff must be between 1 and 10 (bead diameters), got ' &
                  // str(lubrication_cutoff))
+    else if (shell_layers < 0) then
+      call raise(err, source // ': &hydrodynamics shell_layers must be >= 0 (0 = all beads), got ' // str(shell_layers))
     end if
     hydro%multipole_order = multipole_order
     hydro%potential_order = potential_order
@@ -186,6 +192,7 @@ contains
     hydro%lubrication_cutoff = lubrication_cutoff
     hydro%bead_forces = bead_forces
     hydro%cache_file = cache_file
+    hydro%shell_layers = shell_layers
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -274,6 +281,7 @@ contains
       '  lubrication = ' // merge('.true. ', '.false.', config%hydrodynamics%lubrication) // new_line('a') // &
       '  lubrication_cutoff = ' // str(config%hydrodynamics%lubrication_cutoff) // new_line('a') // &
       '  bead_forces = ' // merge('.true. ', '.false.', config%hydrodynamics%bead_forces) // new_line('a') // &
+      '  shell_layers = ' // str(config%hydrodynamics%shell_layers) // new_line('a') // &
       cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
   contains
     pure function cache_line(path) result(line_text)

@@ -199,6 +199,8 @@ contains
     call write_attribute(group, 'operator', trim(hydro%operator_name), err)
     call write_attribute(group, 'near_field_radius', hydro%near_field_radius, err)
     call write_attribute(group, 'near_field_cluster', hydro%near_field_cluster, err)
+    call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
+    call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
     call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
     call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
     call write_attribute(group, 'computed_blocks', int(hydro%computed_blocks), err)

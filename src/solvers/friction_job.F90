@@ -16,6 +16,7 @@ module beadmob_friction_job
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
+  use beadmob_shell_model, only: shell_mask
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
@@ -43,6 +44,8 @@ module beadmob_friction_job
     !> Pairs within the same cube of this edge (lattice cells) enter it too; 0 = none.
     integer :: near_field_cluster = 0
     logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
+    !> Shell model: only the beads within this many layers of the surface (0 = all beads).
+    integer :: shell_layers = 0
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
     !> table_cache.f90): a cached run gives the same numbers to the last bit.
     character(len=1024) :: cache_file = ''
@@ -56,6 +59,7 @@ module beadmob_friction_job
     type(friction_diagnostics_t) :: diagnostics, multipole_diagnostics
     type(solve_statistics_t) :: solves
     integer :: unknowns_per_bead = 0
+    integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
@@ -77,6 +81,33 @@ contains
 
   !> Collective.
   subroutine friction_of_model(ctx, settings, centres, reference_point, result, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    type(friction_result_t), intent(out) :: result
+    type(error_t), intent(inout) :: err
+    logical, allocatable :: keep(:)
+    integer :: i
+
+    if (settings%shell_layers == 0) then
+      call friction_of_beads(ctx, settings, centres, reference_point, result, err)
+      return
+    end if
+    ! Shell model (same input on every rank: the same outcome everywhere).
+    if (.not. on_unit_lattice(centres)) then
+      call raise(err, 'shell_layers needs beads on the unit lattice (a shape, not an off-lattice bead file)')
+    else if (settings%bead_forces) then
+      call raise(err, 'bead_forces needs the full model (shell_layers = 0)')
+    else
+      call shell_mask(centres, settings%shell_layers, keep, err)
+    end if
+    if (err%failed) return
+    call friction_of_beads(ctx, settings, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), reference_point, &
+                           result, err)
+  end subroutine friction_of_model
+
+  !> Collective. The friction job on the bead set `centres` (all beads in the solve).
+  subroutine friction_of_beads(ctx, settings, centres, reference_point, result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
@@ -108,6 +139,7 @@ contains
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%order, settings%potential_order)
     result%unknowns_per_bead = basis%size
+    result%hydrodynamic_beads = size(centres, 2)
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
@@ -216,7 +248,7 @@ contains
         PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
       end if
     end subroutine mark
-  end subroutine friction_of_model
+  end subroutine friction_of_beads
 
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
   !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C
