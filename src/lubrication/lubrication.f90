@@ -130,6 +130,7 @@ contains
     integer, allocatable :: missing(:), counts(:), offsets(:), flags(:)
     integer :: rank, n_ranks, ierr, j, k, h, n, n_missing, mine, failed_here, failed_anywhere
     type(error_t) :: cache_err, write_err
+    logical :: caching
 
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
@@ -140,7 +141,10 @@ contains
     table%distances = found
     allocate (table%correction(4, n), flags(n))
     flags = 0
-    if (len(cache_file) > 0 .and. rank == 0) then
+    ! Only rank 0 touches the file: its view decides, for every rank.
+    caching = len(cache_file) > 0
+    call MPI_Bcast(caching, 1, MPI_LOGICAL, 0, comm, ierr)
+    if (caching .and. rank == 0) then
       call read_cached_lubrication(cache_file, lubrication_cache_key(order, potential_order), cached_distances, &
                                    cached, cache_err)
       if (cache_err%failed) call warn_cache(cache_file, cache_err%message // &
@@ -156,7 +160,7 @@ contains
         end do
       end do
     end if
-    if (len(cache_file) > 0) then
+    if (caching) then
       call MPI_Bcast(flags, n, MPI_INTEGER, 0, comm, ierr)
       if (any(flags == 1)) call MPI_Bcast(table%correction, 4 * n, MPI_DOUBLE_PRECISION, 0, comm, ierr)
     end if
@@ -190,7 +194,7 @@ contains
     ! Store only corrections every rank computed without error.
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
-    if (len(cache_file) > 0 .and. rank == 0 .and. n_missing > 0 .and. failed_anywhere == 0) then
+    if (caching .and. rank == 0 .and. n_missing > 0 .and. failed_anywhere == 0) then
       call write_cached_lubrication(cache_file, lubrication_cache_key(order, potential_order), &
                                     [cached_distances, found(missing)], &
                                     reshape([cached, gathered(:, 1:n_missing)], [4, size(cached_distances) + n_missing]), &

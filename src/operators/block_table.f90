@@ -166,8 +166,9 @@ contains
     call MPI_Comm_size(comm, n_ranks, ierr)
     allocate (canonical_blocks(nb, nb, max(n_canonical, 1)), known(n_canonical))
     known = .false.
-    ! The cache file name is the same on every rank (from the broadcast input), so is this.
+    ! Only rank 0 touches the file: its view decides, for every rank.
     caching = len(table%cache_file) > 0
+    call MPI_Bcast(caching, 1, MPI_LOGICAL, 0, comm, ierr)
     if (caching) call take_cached_blocks()
 
     ! Quadrature for the rest, shared over the ranks.
