@@ -10,6 +10,9 @@ Then the physics check named CHECK against a reference independent of beadmob:
   health FILE...             only the above
   flagged FILE               a run that must be flagged: all_converged = 0 or a friction flag
                              at 0, the flags consistent with numpy, and still no NaN in the file
+  nonfinite FILE             a run whose solves overflowed (Release builds only; Debug builds
+                             trap): the file written all the same, friction_finite = 0,
+                             all_converged = 0, the mobility NaN, the rest of the file finite
   slender FILE...            straight chains (any order of N): slender-body theory
   gaps FILE...               bead pairs, first at contact, then gaps increasing: Stimson-Jeffery
   gap_chain FILE TOUCHING    six beads with gaps 1e-2 ... 1e-6 against the touching chain
@@ -131,6 +134,21 @@ def check_flagged(path):
     expect(a["all_converged"] == int(np.all(reasons > 0)), f"{path}: all_converged disagrees with the reasons")
     print(f"{path}: all_converged {a['all_converged']}, reasons {reasons}, friction positive definite "
           f"{a['friction_positive_definite']}, smallest eigenvalue {a['friction_min_eigenvalue']:.4g}")
+
+
+def check_nonfinite(path):
+    """A friction with Inf/NaN entries: flagged, never passed off as a result."""
+    run = load(path)
+    a = run["attrs"]
+    expect(not np.all(np.isfinite(run["friction"])), f"{path}: the friction is finite; this check expects otherwise")
+    expect(a["friction_finite"] == 0 and a["friction_positive_definite"] == 0 and a["friction_well_conditioned"] == 0,
+           f"{path}: a non-finite friction not flagged")
+    expect(a["all_converged"] == 0 and np.any(np.asarray(a["solve_converged_reason"]) < 0),
+           f"{path}: the diverged solves are not flagged")
+    with h5py.File(path, "r") as f:
+        expect(np.all(np.isnan(f["hydrodynamics/mobility"][()])), f"{path}: mobility of a non-finite friction not NaN")
+        expect(np.all(np.isfinite(f["geometry/positions"][()])), f"{path}: geometry not finite")
+    print(f"{path}: friction_finite {a['friction_finite']}, reasons {a['solve_converged_reason']}")
 
 
 def check_slender(paths):
@@ -313,13 +331,14 @@ def check_plate(path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("check", choices=["health", "flagged", "slender", "gaps", "gap_chain", "far",
+    parser.add_argument("check", choices=["health", "flagged", "nonfinite", "slender", "gaps", "gap_chain", "far",
                                           "pair_contact", "cube", "plate"])
     parser.add_argument("files", nargs="+")
     args = parser.parse_args()
     f = args.files
     {"health": lambda: [health(p) for p in f],
      "flagged": lambda: [check_flagged(p) for p in f],
+     "nonfinite": lambda: [check_nonfinite(p) for p in f],
      "slender": lambda: check_slender(f),
      "gaps": lambda: check_gaps(f),
      "gap_chain": lambda: check_gap_chain(*f),
