@@ -125,8 +125,8 @@ contains
     type(multipole_basis_t), intent(in) :: basis
     type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
-    integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, m, n_canonical, mine, &
-               n_missing
+    integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, n_canonical, mine, &
+               n_missing, extent(3)
     integer, allocatable :: counts(:), offsets(:), canonical_id(:, :, :), canonical_list(:, :), missing(:), &
                             cached_list(:, :)
     real(dp), allocatable :: canonical_blocks(:, :, :), computed(:, :, :), gathered(:, :, :), transforms(:, :, :), &
@@ -138,19 +138,20 @@ contains
 
     nb = basis%size
     width = 2 * table%span + 1
-    n_blocks = product(width)
-    bytes = real(n_blocks, dp) * nb * nb * 8
+    bytes = product(real(width, dp)) * nb * nb * 8   ! in real arithmetic: product(width) may overflow
     if (bytes > max_store_bytes) then
       call raise(err, 'the block table of this model needs ' // str(bytes / 1.0e9_dp) // ' GB per rank (box ' // &
                  str(width(1)) // ' x ' // str(width(2)) // ' x ' // str(width(3)) // ' displacements, ' // &
                  str(nb) // ' unknowns per bead); the limit is ' // str(max_store_bytes / 1.0e9_dp) // ' GB')
       return
     end if
+    n_blocks = product(width)
     centre_index = table_block_index(table, [0, 0, 0])
 
-    ! The canonical displacements the half box needs.
-    m = maxval(table%span)
-    allocate (canonical_id(0:m, 0:m, 0:m), canonical_list(3, (m + 1)**3))
+    ! The canonical displacements the half box needs: c(1) >= c(2) >= c(3) >= 0 are the sorted
+    ! |d|, so c(k) <= the k-th largest span (an index linear, not cubic, in a chain's length).
+    extent = sorted_descending(table%span)
+    allocate (canonical_id(0:extent(1), 0:extent(2), 0:extent(3)), canonical_list(3, product(extent + 1)))
     canonical_id = 0
     n_canonical = 0
     do index = centre_index + 1, n_blocks
@@ -234,7 +235,7 @@ contains
                                               '; computing every block and rewriting the cache')
         do j = 1, size(cached_list, 2)
           e = cached_list(:, j)   ! canonical (checked on reading): 0 <= e <= e(1)
-          if (e(1) > m) cycle
+          if (any(e > extent)) cycle
           k = canonical_id(e(1), e(2), e(3))
           if (k == 0) cycle
           if (known(k)) cycle
@@ -255,6 +256,12 @@ contains
       call MPI_Bcast(buffer, nb * nb * n_taken, MPI_DOUBLE_PRECISION, 0, comm, ierr)
       canonical_blocks(:, :, taken) = buffer
     end subroutine take_cached_blocks
+
+    pure function sorted_descending(v) result(w)
+      integer, intent(in) :: v(3)
+      integer :: w(3)
+      w = [maxval(v), sum(v) - maxval(v) - minval(v), minval(v)]
+    end function sorted_descending
 
     pure function displacement_of(linear) result(dd)
       integer, intent(in) :: linear
