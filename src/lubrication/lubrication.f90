@@ -17,7 +17,7 @@ module beadmob_lubrication
   use beadmob_table_cache, only: cache_key_t, read_cached_lubrication, write_cached_lubrication, warn_cache
   implicit none
   private
-  public :: doublet_friction, exact_doublet_friction, lubrication_table_t, make_lubrication_table, &
+  public :: doublet_friction, exact_doublet_friction, lubrication_table_t, &
             make_shared_lubrication_table, lubrication_cache_key, add_lubrication, reference_order, contact_tolerance
 
   !> Order of the "exact" doublet values: rigid-doublet friction converges in L even at contact;
@@ -82,27 +82,6 @@ contains
     end if
   end subroutine exact_doublet_friction
 
-  !> The corrections for every distinct bead distance below `cutoff` (units of d).
-  subroutine make_lubrication_table(order, potential_order, centres, cutoff, table, err)
-    integer, intent(in) :: order, potential_order
-    real(dp), intent(in) :: centres(:, :), cutoff
-    type(lubrication_table_t), intent(out) :: table
-    type(error_t), intent(inout) :: err
-    real(dp) :: exact(4), approximate(4)
-    real(dp), allocatable :: found(:)
-    integer :: k
-    call distinct_close_distances(centres, cutoff, found)
-    table%cutoff = cutoff
-    table%distances = found
-    allocate (table%correction(4, size(found)))
-    do k = 1, size(found)
-      call exact_doublet_friction(found(k), exact, err)
-      call doublet_friction(order, potential_order, found(k), approximate, err)
-      table%correction(:, k) = exact - approximate
-    end do
-    table%computed_distances = size(found)
-  end subroutine make_lubrication_table
-
   !> The cache key of the corrections at order (L, L2): everything they depend on.
   function lubrication_cache_key(order, potential_order) result(key)
     integer, intent(in) :: order, potential_order
@@ -116,9 +95,10 @@ contains
                str(lubrication_formula_version)
   end function lubrication_cache_key
 
-  !> make_lubrication_table collectively over comm, the same table on every rank: corrections
-  !> found in the table cache `cache_file` ('' = none; read by rank 0, for the identical distance)
-  !> are taken from it, the others are computed shared over the ranks and added to the cache.
+  !> The corrections for every distinct bead distance below `cutoff` (units of d), collectively
+  !> over comm, the same table on every rank: corrections found in the table cache `cache_file`
+  !> ('' = none; read by rank 0, for the identical distance) are taken from it, the others are
+  !> computed shared over the ranks and added to the cache.
   subroutine make_shared_lubrication_table(comm, order, potential_order, centres, cutoff, cache_file, table, err)
     integer, intent(in) :: comm, order, potential_order
     real(dp), intent(in) :: centres(:, :), cutoff
