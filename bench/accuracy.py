@@ -59,7 +59,8 @@ NAMES = ["mu11", "mu22", "mu33", "mu42", "mu51"]
 def shape_group(shape):
     if shape in EXTRA_SHAPES:
         return EXTRA_SHAPES[shape]
-    text = (ROOT / "shapes" / f"{shape}.nml").read_text()
+    # The &shape group of the shape file, comments dropped (they may contain a '/').
+    text = "\n".join(line.split("!")[0] for line in (ROOT / "shapes" / f"{shape}.nml").read_text().splitlines())
     start = text.index("&shape")
     return text[start:text.index("/", start) + 1]
 

@@ -5,6 +5,8 @@
 #   none        -pc_type none
 #   bead        the single-bead blocks (default, PCSHELL)
 #   cluster2/3  exact blocks of 2^3 / 3^3 lattice-cell clusters, MUMPS Cholesky (-near_field_cluster)
+#   guess       single-bead blocks, initial guess of each solve projected from the earlier
+#               solutions (-ksp_guess_type fischer, PETSc KSPGuess)
 #   radius1     single-bead blocks plus nearest-neighbour pair blocks, MUMPS Cholesky
 #               (-near_field_radius 1; the truncated matrix is not positive definite, see
 #               docs/theory.md T11; run on the two smaller spheres only)
@@ -16,7 +18,8 @@ source "$root/scripts/mpi-env.sh"
 exe=${BUILD_DIR:-$root/build}/beadmob
 work=$root/bench/preconditioner_runs
 mkdir -p "$work"
-declare -A options=([none]="-pc_type none" [bead]="" [cluster2]="-near_field_cluster 2"
+declare -A options=([none]="-pc_type none" [bead]="" [guess]="-ksp_guess_type fischer -ksp_guess_fischer_model 1,6"
+                    [cluster2]="-near_field_cluster 2"
                     [cluster3]="-near_field_cluster 3" [radius1]="-near_field_radius 1")
 run() {  # run <model tag> <shape group> <variant>
   local tag=$1_$3
@@ -25,7 +28,7 @@ run() {  # run <model tag> <shape group> <variant>
   (cd "$work" && mpirun -n 2 "$exe" "$tag.nml" ${options[$3]} > "$tag.log" 2>&1) || echo "failed" >> "$work/$tag.log"
   echo "preconditioners: $tag done"
 }
-for variant in bead none cluster2 cluster3 radius1; do
+for variant in bead none guess cluster2 cluster3 radius1; do
   run cone "&shape name = 'cone', base_diameter = 20, height = 47 /" "$variant"
   for r in 6.2 13.4; do
     run "sphere_r$r" "&shape name = 'sphere', radius = $r /" "$variant"

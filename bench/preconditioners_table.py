@@ -10,6 +10,7 @@ import numpy as np
 
 run_dir = Path(sys.argv[1])
 variants = {"none": "none (`-pc_type none`)", "bead": "single-bead blocks (default)",
+            "guess": "single-bead blocks + Fischer initial guess",
             "cluster2": "2^3 clusters, MUMPS", "cluster3": "3^3 clusters, MUMPS",
             "radius1": "radius 1 pairs, MUMPS"}
 models = ["cone", "sphere_r6.2", "sphere_r13.4", "sphere_r19.3"]
