@@ -37,10 +37,10 @@ EXTRA_SHAPES = {"sphere": "&shape name = 'sphere', radius = 10 /",
                 "spheroid": "&shape name = 'spheroid', semi_axes = 18, 8, 8 /"}
 # label -> (&hydrodynamics entries, extra command-line options)
 SETTINGS = {
-    "L4_tight": ("multipole_order = 4", "-ksp_rtol 1e-9"),
-    "L3_tight": ("multipole_order = 3", "-ksp_rtol 1e-9"),
-    "L2_tight": ("multipole_order = 2", "-ksp_rtol 1e-9"),
-    "L1_tight": ("multipole_order = 1", "-ksp_rtol 1e-9"),
+    "L4_tight": ("multipole_order = 4", "-ksp_rtol 1e-7"),
+    "L3_tight": ("multipole_order = 3", "-ksp_rtol 1e-7"),
+    "L2_tight": ("multipole_order = 2", "-ksp_rtol 1e-7"),
+    "L1_tight": ("multipole_order = 1", "-ksp_rtol 1e-7"),
     "L3_default": ("multipole_order = 3", ""),
     "L2_default": ("multipole_order = 2", ""),
     "L1_default": ("multipole_order = 1", ""),
