@@ -15,7 +15,7 @@ import sys
 import h5py
 import numpy as np
 
-RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes"}
+RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes"}
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction"}
 #: Eigenvalues, condition number and asymmetry of the friction (friction_diagnostics.f90): derived

@@ -213,6 +213,7 @@ contains
     call write_attribute(group, 'phase_names', names, err)
     call write_attribute(group, 'phase_seconds', hydro%seconds, err)
     call write_attribute(group, 'peak_memory_bytes', hydro%peak_memory_bytes, err)
+    call write_attribute(group, 'phase_peak_memory_bytes', hydro%phase_peak_memory_bytes, err)
     if (config%hydrodynamics%lubrication) then
       call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
       call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)

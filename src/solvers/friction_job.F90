@@ -73,6 +73,9 @@ module beadmob_friction_job
     type(lubrication_table_t) :: lubrication_table
     real(dp) :: seconds(size(phase_names)) = 0.0_dp   ! wall time per phase (max over ranks)
     real(dp) :: peak_memory_bytes = 0.0_dp   ! peak resident set size, max over ranks
+    !> Peak resident set size reached by the end of each phase, max over ranks (the peak is
+    !> monotonic: a phase's own need shows as the step from the previous phase)
+    real(dp) :: phase_peak_memory_bytes(size(phase_names) - 1) = 0.0_dp
     !> With settings%bead_forces: (36, this rank's beads), see rigid_body_friction.
     real(dp), allocatable :: bead_forces(:, :)
   end type friction_result_t
@@ -236,6 +239,8 @@ contains
     result%seconds(5) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call MPI_Allreduce(peak_resident_bytes(), result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    call MPI_Allreduce(MPI_IN_PLACE, result%phase_peak_memory_bytes, size(result%phase_peak_memory_bytes), &
+                       MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
 
@@ -243,6 +248,7 @@ contains
     subroutine mark(phase)
       integer, intent(in) :: phase
       result%seconds(phase) = MPI_Wtime() - start - sum(result%seconds(1:phase - 1))
+      result%phase_peak_memory_bytes(phase) = peak_resident_bytes()
       PetscCallA(PetscLogStagePop(ierr))
       if (phase < size(stages)) then
         PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
