@@ -8,7 +8,7 @@ module beadmob_parallel
   use beadmob_errors, only: error_t
   implicit none
   private
-  public :: run_context_t, make_run_context, agree_on_error, broadcast_text, block_range
+  public :: run_context_t, make_run_context, agree_on_error, broadcast_text, block_range, even_shares
 
   type :: run_context_t
     integer :: comm = MPI_COMM_WORLD
@@ -77,4 +77,20 @@ contains
     if (ctx%rank < extra) count = count + 1
     first = 1 + ctx%rank * base + min(int(ctx%rank, i8), extra)
   end subroutine block_range
+
+  !> n items in contiguous, nearly equal shares over n_ranks ranks (the first mod(n, n_ranks)
+  !> ranks one more): counts(r), offsets(r) for r = 0 .. n_ranks - 1, as MPI_Allgatherv takes them.
+  pure subroutine even_shares(n, n_ranks, counts, offsets)
+    integer, intent(in) :: n, n_ranks
+    integer, allocatable, intent(out) :: counts(:), offsets(:)
+    integer :: r
+    allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
+    do r = 0, n_ranks - 1
+      counts(r) = n / n_ranks + merge(1, 0, r < mod(n, n_ranks))
+    end do
+    offsets(0) = 0
+    do r = 1, n_ranks - 1
+      offsets(r) = offsets(r - 1) + counts(r - 1)
+    end do
+  end subroutine even_shares
 end module beadmob_parallel

@@ -4,6 +4,7 @@
 !> Mirror planes are detected from the beads, never assumed.
 module beadmob_body_frame
   use beadmob_kinds, only: dp, i8
+  use beadmob_lapack, only: dsyev
   use beadmob_errors, only: error_t
   use beadmob_vector_algebra, only: cross
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
@@ -25,17 +26,6 @@ module beadmob_body_frame
     !> True when exactly the x and y planes are mirror planes: the paper's class of shapes.
     logical :: paper_class = .false.
   end type body_frame_t
-
-  interface
-    subroutine dsyev(jobz, uplo, n, a, lda, w, work, lwork, info)
-      import :: dp
-      character(len=1), intent(in) :: jobz, uplo
-      integer, intent(in) :: n, lda, lwork
-      real(dp), intent(inout) :: a(lda, *)
-      real(dp), intent(out) :: w(*), work(*)
-      integer, intent(out) :: info
-    end subroutine dsyev
-  end interface
 
 contains
 

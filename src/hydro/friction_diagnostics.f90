@@ -8,6 +8,7 @@
 module beadmob_friction_diagnostics
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dsyev
   implicit none
   private
   public :: friction_diagnostics_t, diagnose_friction, friction_warning, condition_threshold, asymmetry_threshold
@@ -30,17 +31,6 @@ module beadmob_friction_diagnostics
     logical :: symmetric = .false.           ! asymmetry <= asymmetry_threshold
     logical :: well_conditioned = .false.    ! condition_number <= condition_threshold
   end type friction_diagnostics_t
-
-  interface
-    subroutine dsyev(jobz, uplo, n, a, lda, w, work, lwork, info)
-      import :: dp
-      character, intent(in) :: jobz, uplo
-      integer, intent(in) :: n, lda, lwork
-      real(dp), intent(inout) :: a(lda, *)
-      real(dp), intent(out) :: w(*), work(*)
-      integer, intent(out) :: info
-    end subroutine dsyev
-  end interface
 
 contains
 

@@ -6,6 +6,7 @@
 !> Units: eta = 1, lengths in bead diameters d.
 module beadmob_mobility
   use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dgesv
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   implicit none
@@ -29,15 +30,6 @@ module beadmob_mobility
     real(dp) :: centre_of_mobility(3) = 0.0_dp
     real(dp) :: mobility_at_centre(6, 6) = 0.0_dp
   end type mobility_result_t
-
-  interface
-    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-      import :: dp
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(dp), intent(inout) :: a(lda, *), b(ldb, *)
-      integer, intent(out) :: ipiv(*), info
-    end subroutine dgesv
-  end interface
 
 contains
 

@@ -11,6 +11,7 @@ module beadmob_lubrication
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_parallel, only: even_shares
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis, bead_radius
   use beadmob_dense_friction, only: dense_friction, rigid_motions
   use beadmob_two_sphere_exact, only: stimson_jeffery, stimson_jeffery_contact
@@ -148,14 +149,7 @@ contains
     ! The missing corrections, shared over the ranks.
     missing = pack([(k, k = 1, n)], flags == 0)
     n_missing = size(missing)
-    allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
-    do h = 0, n_ranks - 1
-      counts(h) = n_missing / n_ranks + merge(1, 0, h < mod(n_missing, n_ranks))
-    end do
-    offsets(0) = 0
-    do h = 1, n_ranks - 1
-      offsets(h) = offsets(h - 1) + counts(h - 1)
-    end do
+    call even_shares(n_missing, n_ranks, counts, offsets)
     mine = counts(rank)
     allocate (computed(4, max(mine, 1)), gathered(4, max(n_missing, 1)))
     do h = 1, mine

@@ -5,6 +5,7 @@
 !> (lubrication) tables and as an independent check of the distributed solve.
 module beadmob_dense_friction
   use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dpotrf, dpotrs
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_multipole_basis, only: multipole_basis_t
@@ -12,24 +13,6 @@ module beadmob_dense_friction
   implicit none
   private
   public :: dense_friction, rigid_motions
-
-  interface
-    pure subroutine dpotrf(uplo, n, a, lda, info)
-      import :: dp
-      character, intent(in) :: uplo
-      integer, intent(in) :: n, lda
-      real(dp), intent(inout) :: a(lda, *)
-      integer, intent(out) :: info
-    end subroutine dpotrf
-    pure subroutine dpotrs(uplo, n, nrhs, a, lda, b, ldb, info)
-      import :: dp
-      character, intent(in) :: uplo
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(dp), intent(in) :: a(lda, *)
-      real(dp), intent(inout) :: b(ldb, *)
-      integer, intent(out) :: info
-    end subroutine dpotrs
-  end interface
 
 contains
 

@@ -8,21 +8,12 @@
 !> integrand (the pole of |x - R_j|^-1); the azimuthal trapezoid rule is exact.
 module beadmob_pair_blocks
   use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dgemm
   use beadmob_multipole_basis, only: multipole_basis_t, evaluate_densities, evaluate_fields, bead_radius
   use beadmob_quadrature, only: sphere_rule
   implicit none
   private
   public :: pair_block, self_block, rigid_projection
-
-  interface
-    pure subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
-      import :: dp
-      character, intent(in) :: transa, transb
-      integer, intent(in) :: m, n, k, lda, ldb, ldc
-      real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
-      real(dp), intent(inout) :: c(ldc, *)
-    end subroutine dgemm
-  end interface
 
 contains
 

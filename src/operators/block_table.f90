@@ -11,6 +11,7 @@ module beadmob_block_table
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_parallel, only: even_shares
   use beadmob_multipole_basis, only: multipole_basis_t, bead_radius
   use beadmob_pair_blocks, only: pair_block
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
@@ -175,14 +176,7 @@ contains
     ! Quadrature for the rest, shared over the ranks.
     missing = pack([(h, h = 1, n_canonical)], .not. known)
     n_missing = size(missing)
-    allocate (counts(0:n_ranks - 1), offsets(0:n_ranks - 1))
-    do h = 0, n_ranks - 1
-      counts(h) = n_missing / n_ranks + merge(1, 0, h < mod(n_missing, n_ranks))
-    end do
-    offsets(0) = 0
-    do h = 1, n_ranks - 1
-      offsets(h) = offsets(h - 1) + counts(h - 1)
-    end do
+    call even_shares(n_missing, n_ranks, counts, offsets)
     mine = counts(rank)
     allocate (computed(nb, nb, max(mine, 1)), gathered(nb, nb, max(n_missing, 1)))
     do h = 1, mine

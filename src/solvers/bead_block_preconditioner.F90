@@ -7,6 +7,7 @@ module beadmob_bead_block_preconditioner
 #include "petsc/finclude/petscksp.h"
   use petscksp
   use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dgemm, dpotrf, dpotri
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   implicit none
@@ -36,30 +37,6 @@ module beadmob_bead_block_preconditioner
       type(bead_block_preconditioner_t), pointer :: context
       PetscErrorCode :: ierr
     end subroutine PCShellGetContext
-  end interface
-
-  interface
-    pure subroutine dpotrf(uplo, n, a, lda, info)
-      import :: dp
-      character, intent(in) :: uplo
-      integer, intent(in) :: n, lda
-      real(dp), intent(inout) :: a(lda, *)
-      integer, intent(out) :: info
-    end subroutine dpotrf
-    pure subroutine dpotri(uplo, n, a, lda, info)
-      import :: dp
-      character, intent(in) :: uplo
-      integer, intent(in) :: n, lda
-      real(dp), intent(inout) :: a(lda, *)
-      integer, intent(out) :: info
-    end subroutine dpotri
-    pure subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
-      import :: dp
-      character, intent(in) :: transa, transb
-      integer, intent(in) :: m, n, k, lda, ldb, ldc
-      real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
-      real(dp), intent(inout) :: c(ldc, *)
-    end subroutine dgemm
   end interface
 
 contains
