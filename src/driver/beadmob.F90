@@ -26,6 +26,7 @@ program beadmob
   end if
 
   PetscCallA(PetscInitialize(ierr))
+  call accept_long_options()
   ctx = make_run_context(PETSC_COMM_WORLD)
   ! The input file, when given, is the first argument; PETSc options follow.
   input_path = ''
@@ -42,6 +43,25 @@ program beadmob
 
 contains
 
+  !> --accuracy X and --accuracy=X (the GNU spelling) mean PETSc's -accuracy X, which PETSc
+  !> itself would not see.
+  subroutine accept_long_options()
+    character(len=256) :: argument, value
+    integer :: k, equals
+    do k = 1, command_argument_count()
+      call get_command_argument(k, argument)
+      if (argument(1:10) /= '--accuracy') cycle
+      equals = index(argument, '=')
+      value = ''
+      if (equals > 0) then
+        value = argument(equals + 1:)
+      else if (k < command_argument_count()) then
+        call get_command_argument(k + 1, value)
+      end if
+      PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-accuracy', trim(value), ierr))
+    end do
+  end subroutine accept_long_options
+
   subroutine print_usage()
     write (*, '(a)') 'usage: beadmob [INPUT.nml] [PETSc options]', &
       '       mpirun -n P beadmob [INPUT.nml] [PETSc options]', &
@@ -57,6 +77,8 @@ contains
       '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
       '  -near_field_cluster C       and pairs within the same C x C x C cube of lattice cells', &
       '  -geometry_only              build and check the bead model, skip &hydrodynamics', &
+      '  -accuracy E (or --accuracy E)  the cheapest settings that the benchmark data say reach a', &
+      '                              relative error E of the mobility coefficients (bench/accuracy.md)', &
       'PETSc options (-log_view, -ksp_type, -ksp_rtol, -pc_type, ...) are passed to PETSc.'
   end subroutine print_usage
 end program beadmob

@@ -16,6 +16,8 @@ module beadmob_run
   use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
   use beadmob_mobility, only: mobility_result_t, compute_mobility
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
+  use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy
+  use beadmob_block_table, only: on_unit_lattice
   implicit none
   private
   public :: run_beadmob, read_input_file
@@ -33,7 +35,9 @@ contains
     type(mobility_result_t) :: mobility
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
-    logical :: geometry_only
+    type(accuracy_choice_t) :: choice
+    logical :: geometry_only, accuracy_given, rtol_given
+    character(len=64) :: accuracy
     character(len=:), allocatable :: text, source
 
     text = ''
@@ -60,9 +64,14 @@ contains
     if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
 
     ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
-    call operator_option(settings, geometry_only)
+    call operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
     if (geometry_only) config%hydrodynamics%enabled = .false.
     if (config%hydrodynamics%enabled) then
+      ! Same options and input on every rank: the same choice (or error) everywhere.
+      call apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_unit_lattice(model%centres), &
+                                 choice, err)
+      if (err%failed) return
+      settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%order = config%hydrodynamics%multipole_order
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
@@ -73,6 +82,7 @@ contains
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
+      hydro%accuracy = choice
       ! Flagged in the file and on stderr, never hidden (docs/stress_tests.md); a non-finite
       ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
       hydro%diagnostics = diagnose_friction(hydro%friction)
@@ -98,12 +108,59 @@ contains
       end if
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
     else
+      if (accuracy_given) call raise(err, '-accuracy needs the friction job (a &hydrodynamics group, ' // &
+                                     'no -geometry_only)')
+      if (err%failed) return   ! the same options on every rank
       call write_result_file(ctx, config, model, frame, err)
     end if
     if (err%failed) return
     if (ctx%rank == 0) call print_summary(config, model, frame)
     if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(config, mobility, hydro)
   end subroutine run_beadmob
+
+  !> An accuracy target (&hydrodynamics accuracy, or -accuracy on the command line, which wins)
+  !> sets L, the sigma = 2 degree, the shell and the Krylov tolerance to the cheapest candidate
+  !> the benchmark data say reaches it (accuracy_choice.f90). It refuses to share these choices
+  !> with the input or -ksp_rtol: the promise holds only for the settings it chose.
+  subroutine apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_lattice, choice, err)
+    type(run_config_t), intent(inout) :: config
+    character(len=*), intent(in) :: accuracy   ! the text of -accuracy
+    logical, intent(in) :: accuracy_given, rtol_given, on_lattice
+    type(accuracy_choice_t), intent(out) :: choice
+    type(error_t), intent(inout) :: err
+    real(dp) :: target
+    integer :: status
+    associate (hydro => config%hydrodynamics)
+      if (accuracy_given) then
+        read (accuracy, *, iostat=status) target
+        if (status /= 0 .or. len_trim(accuracy) == 0 .or. verify(trim(accuracy), '0123456789.eEdD+-') > 0) then
+          call raise(err, "-accuracy needs a relative error between 0 and 1 (e.g. 1e-2), got '" // trim(accuracy) // "'")
+          return
+        else if (.not. (target > 0.0_dp .and. target < 1.0_dp)) then   ! 0 would read as "no target"
+          call raise(err, '-accuracy must be a relative error between 0 and 1 (e.g. 1e-2), got ' // trim(accuracy))
+          return
+        else if (hydro%choices_given) then
+          call raise(err, '-accuracy chooses multipole_order, potential_order, shell_layers and krylov_rtol; ' // &
+                     config%source // ' sets some of them: give either -accuracy or those')
+          return
+        end if
+        hydro%accuracy = target
+      end if
+      if (hydro%accuracy == 0.0_dp) return
+      if (rtol_given) then
+        call raise(err, '-ksp_rtol would override the Krylov tolerance the accuracy target chooses: ' // &
+                   'give one or the other')
+        return
+      end if
+      call choose_for_accuracy(hydro%accuracy, hydro%lubrication, on_lattice .and. .not. hydro%bead_forces, &
+                               choice, err)
+      if (err%failed) return
+      hydro%multipole_order = choice%order
+      hydro%potential_order = max(choice%order - 2, 0)
+      hydro%shell_layers = choice%shell_layers
+      hydro%krylov_rtol = choice%krylov_rtol
+    end associate
+  end subroutine apply_accuracy_target
 
   subroutine print_mobility(config, mobility, hydro)
     type(run_config_t), intent(in) :: config
@@ -114,6 +171,13 @@ contains
       ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
       str(hydro%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
       lubrication_summary(config%hydrodynamics%lubrication, hydro%lubrication_pairs)
+    if (hydro%accuracy%target > 0.0_dp) then
+      write (*, '(a, es8.1, a, es8.1, a)') '  accuracy target', hydro%accuracy%target, ': setting ' // &
+        trim(hydro%accuracy%setting) // ', expected error', hydro%accuracy%expected_error, &
+        ' (bench/accuracy.md, against ' // trim(hydro%accuracy%reference) // ')'
+      if (.not. hydro%accuracy%target_met) write (error_unit, '(a)') 'beadmob: warning: no measured setting ' // &
+        'reaches the accuracy target; the most accurate one was used (bench/accuracy.md)'
+    end if
     if (config%hydrodynamics%shell_layers > 0) write (*, '(a)') '  shell model: ' // str(hydro%hydrodynamic_beads) // &
       ' beads within ' // str(config%hydrodynamics%shell_layers) // ' layer(s) of the surface'
     write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &

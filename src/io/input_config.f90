@@ -59,6 +59,17 @@ module beadmob_input_config
     character(len=1024) :: cache_file = ''
     !> Shell model: only the beads within this many layers of the surface take part (0 = all).
     integer :: shell_layers = 0
+    !> Relative tolerance of the Krylov solves (PETSc's -ksp_rtol, given on the command line,
+    !> overrides it). The friction is variational: its error is ~ the square of this
+    !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
+    real(dp) :: krylov_rtol = 1.0e-3_dp
+    !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the
+    !> committed benchmark data say reach it choose L, the shell and the Krylov tolerance
+    !> (accuracy_choice.f90). The command-line option -accuracy overrides it.
+    real(dp) :: accuracy = 0.0_dp
+    !> True when the input sets multipole_order, potential_order, shell_layers or krylov_rtol
+    !> itself (then an accuracy target, which chooses them, is refused).
+    logical :: choices_given = .false.
   end type hydrodynamics_config_t
 
   type :: run_config_t
@@ -151,28 +162,44 @@ contains
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, shell_layers, status
     logical :: lubrication, bead_forces
-    real(dp) :: lubrication_cutoff
+    real(dp) :: lubrication_cutoff, accuracy, krylov_rtol
     character(len=1024) :: cache_file
     character(len=512) :: message
     namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
-                             shell_layers
+                             shell_layers, krylov_rtol, accuracy
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
-    multipole_order = hydro%multipole_order
+    ! Unset markers first: an accuracy target must know whether the input chose these itself.
+    multipole_order = unset_int
     potential_order = hydro%potential_order
+    shell_layers = unset_int
+    krylov_rtol = unset_real
     lubrication = hydro%lubrication
     lubrication_cutoff = hydro%lubrication_cutoff
     bead_forces = hydro%bead_forces
     cache_file = hydro%cache_file
-    shell_layers = hydro%shell_layers
+    accuracy = hydro%accuracy
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
       return
     end if
+    hydro%choices_given = is_set(multipole_order) .or. is_set(potential_order) .or. is_set(shell_layers) .or. &
+                          is_set(krylov_rtol)
+    if (.not. is_set(multipole_order)) multipole_order = hydro%multipole_order
+    if (.not. is_set(shell_layers)) shell_layers = hydro%shell_layers
+    if (.not. is_set(krylov_rtol)) krylov_rtol = hydro%krylov_rtol
     if (.not. is_set(potential_order)) potential_order = max(multipole_order - 2, 0)
-    if (multipole_order < 1) then
+    if (accuracy /= 0.0_dp .and. .not. (accuracy > 0.0_dp .and. accuracy < 1.0_dp)) then
+      call raise(err, source // ': &hydrodynamics accuracy must be a relative error between 0 and 1 (e.g. 1e-2), ' // &
+                 'or 0 for none, got ' // str(accuracy))
+    else if (accuracy > 0.0_dp .and. hydro%choices_given) then
+      call raise(err, source // ': &hydrodynamics accuracy chooses multipole_order, potential_order, ' // &
+                 'shell_layers and krylov_rtol itself: give either accuracy or those')
+    else if (.not. (krylov_rtol > 0.0_dp .and. krylov_rtol < 1.0_dp)) then
+      call raise(err, source // ': &hydrodynamics krylov_rtol must be between 0 and 1, got ' // str(krylov_rtol))
+    else if (multipole_order < 1) then
       call raise(err, source // ': &hydrodynamics multipole_order must be >= 1, got ' // str(multipole_order))
     else if (multipole_order > 40) then
       call raise(err, source // ': &hydrodynamics multipole_order must be <= 40 (the quadrature and the ' // &
@@ -193,6 +220,8 @@ contains
     hydro%bead_forces = bead_forces
     hydro%cache_file = cache_file
     hydro%shell_layers = shell_layers
+    hydro%krylov_rtol = krylov_rtol
+    hydro%accuracy = accuracy
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -282,8 +311,18 @@ contains
       '  lubrication_cutoff = ' // str(config%hydrodynamics%lubrication_cutoff) // new_line('a') // &
       '  bead_forces = ' // merge('.true. ', '.false.', config%hydrodynamics%bead_forces) // new_line('a') // &
       '  shell_layers = ' // str(config%hydrodynamics%shell_layers) // new_line('a') // &
-      cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
+      '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
+      accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
   contains
+    !> A comment: the settings above are the ones the target chose, and the text stays a valid
+    !> input that reruns them (accuracy together with them would be refused).
+    function accuracy_line(target) result(line_text)
+      real(dp), intent(in) :: target
+      character(len=:), allocatable :: line_text
+      line_text = ''
+      if (target > 0.0_dp) line_text = '  ! chosen for accuracy = ' // str(target) // new_line('a')
+    end function accuracy_line
+
     pure function cache_line(path) result(line_text)
       character(len=*), intent(in) :: path
       character(len=:), allocatable :: line_text

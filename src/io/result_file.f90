@@ -200,6 +200,16 @@ contains
     call write_attribute(group, 'near_field_radius', hydro%near_field_radius, err)
     call write_attribute(group, 'near_field_cluster', hydro%near_field_cluster, err)
     call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
+    call write_attribute(group, 'krylov_rtol_setting', config%hydrodynamics%krylov_rtol, err)
+    ! accuracy_target 0: none asked for; otherwise the choice and the error the data promise
+    ! (bench/accuracy.md, against the reference run named by accuracy_reference).
+    call write_attribute(group, 'accuracy_target', hydro%accuracy%target, err)
+    if (hydro%accuracy%target > 0.0_dp) then
+      call write_attribute(group, 'accuracy_setting', trim(hydro%accuracy%setting), err)
+      call write_attribute(group, 'accuracy_expected_error', hydro%accuracy%expected_error, err)
+      call write_attribute(group, 'accuracy_target_met', merge(1, 0, hydro%accuracy%target_met), err)
+      call write_attribute(group, 'accuracy_reference', trim(hydro%accuracy%reference), err)
+    end if
     call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
     call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
     call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)

@@ -27,10 +27,11 @@ contains
 
   !> The cheapest candidate (candidates are stored by increasing cost) whose promised error for
   !> the friction asked for (with or without the lubrication correction) is <= target; if none,
-  !> the one with the smallest promised error, with target_met = .false.
-  subroutine choose_for_accuracy(target, lubrication, choice, err)
+  !> the one with the smallest promised error, with target_met = .false. Shell-model candidates
+  !> only when shell_allowed (beads on the unit lattice, no per-bead forces asked for).
+  subroutine choose_for_accuracy(target, lubrication, shell_allowed, choice, err)
     real(dp), intent(in) :: target
-    logical, intent(in) :: lubrication
+    logical, intent(in) :: lubrication, shell_allowed
     type(accuracy_choice_t), intent(out) :: choice
     type(error_t), intent(inout) :: err
     real(dp) :: promised(n_candidates)
@@ -41,6 +42,7 @@ contains
       return
     end if
     promised = merge(promised_error_lubricated, promised_error_plain, lubrication)
+    if (.not. shell_allowed) where (candidate_shell_layers > 0) promised = huge(1.0_dp)
     pick = minloc(promised, dim=1)
     choice%target_met = .false.
     do k = 1, n_candidates

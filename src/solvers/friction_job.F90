@@ -20,6 +20,7 @@ module beadmob_friction_job
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
+  use beadmob_accuracy_choice, only: accuracy_choice_t
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
@@ -46,6 +47,8 @@ module beadmob_friction_job
     logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
     !> Shell model: only the beads within this many layers of the surface (0 = all beads).
     integer :: shell_layers = 0
+    !> Krylov relative tolerance of the six solves (-ksp_rtol overrides it)
+    real(dp) :: krylov_rtol = 1.0e-3_dp
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
     !> table_cache.f90): a cached run gives the same numbers to the last bit.
     character(len=1024) :: cache_file = ''
@@ -58,6 +61,8 @@ module beadmob_friction_job
     !> Health of friction and multipole_friction (set by the driver, friction_diagnostics.f90)
     type(friction_diagnostics_t) :: diagnostics, multipole_diagnostics
     type(solve_statistics_t) :: solves
+    !> The settings an accuracy target chose (set by the driver; target 0 = none asked for)
+    type(accuracy_choice_t) :: accuracy
     integer :: unknowns_per_bead = 0
     integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
@@ -205,7 +210,7 @@ contains
     ! Unallocated optional arguments count as absent (Fortran 2008).
     if (settings%bead_forces) allocate (result%bead_forces(36, count))
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                             result%multipole_friction, result%solves, result%bead_forces, bead_blocks)
+                             settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks)
     if (.not. allocated(bead_blocks)) then
       PetscCallA(MatDestroy(near_field, ierr))
     end if
@@ -258,10 +263,14 @@ contains
 
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
   !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C
-  !> (lattice cells) and -geometry_only (skip the friction job).
-  subroutine operator_option(settings, geometry_only)
+  !> (lattice cells), -geometry_only (skip the friction job) and -accuracy TARGET (its text, read
+  !> by the caller, and accuracy_given; rtol_given: whether -ksp_rtol is set too, which would
+  !> override the tolerance the target chooses).
+  subroutine operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
     type(friction_settings_t), intent(inout) :: settings
     logical, intent(out) :: geometry_only
+    character(len=*), intent(out), optional :: accuracy
+    logical, intent(out), optional :: accuracy_given, rtol_given
     character(len=16) :: value
     PetscBool :: found
     PetscReal :: radius
@@ -277,6 +286,15 @@ contains
     if (found) settings%fft_planner = value
     PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
     geometry_only = found
+    if (present(accuracy)) then
+      accuracy = ''
+      PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-accuracy', accuracy, found, ierr))
+      if (present(accuracy_given)) accuracy_given = found
+    end if
+    if (present(rtol_given)) then
+      PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ksp_rtol', found, ierr))
+      rtol_given = found
+    end if
   end subroutine operator_option
 
   !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the

@@ -48,11 +48,14 @@ contains
   !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
   !> bead_blocks, when present, is the preconditioner (preconditioning_matrix then unused).
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
-                                 reference_point, friction, stats, bead_forces, bead_blocks)
+                                 reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
     integer(i8), intent(in) :: first_bead, n_local
+    !> Krylov relative tolerance (-ksp_rtol on the command line overrides it; the one used is
+    !> recorded in stats)
+    real(dp), intent(in) :: relative_tolerance
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
     real(dp), intent(out), optional :: bead_forces(:, :)
@@ -84,7 +87,7 @@ contains
       PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
       PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
     end if
-    PetscCallA(KSPSetTolerances(ksp, 1.0e-3_dp, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCallA(KSPSetTolerances(ksp, relative_tolerance, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
