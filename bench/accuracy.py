@@ -83,8 +83,8 @@ def run(exe, shape, label, repeats, force, reference):
                                      f"&hydrodynamics {hydro}, lubrication = .true. /\n")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     walls = []
-    # Tight settings are accuracy references: one run each (their time is stated as one run).
-    for _ in range(1 if label == reference or label.endswith("_tight") else repeats):
+    # Tight and L = 3 settings: one run each (minutes per run; the runs column says so).
+    for _ in range(1 if label == reference or label.endswith("_tight") or label.startswith("L3") else repeats):
         start = time.perf_counter()
         with open(RUNS / f"{tag}.log", "w") as log:
             subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options.split()], cwd=RUNS,
@@ -95,8 +95,8 @@ def run(exe, shape, label, repeats, force, reference):
     return walls
 
 
-def read(shape, label):
-    with h5py.File(RUNS / f"{shape}_{label}.h5") as f:
+def read(shape, label, path=None):
+    with h5py.File(path or RUNS / f"{shape}_{label}.h5") as f:
         g = f["hydrodynamics"]
         return dict(plain=np.asarray(g["multipole_coefficients"][()]), lubricated=np.asarray(g["coefficients"][()]),
                     iterations=int(np.sum(g.attrs["solve_iterations"])), n=int(f["geometry"].attrs["n_beads"]),
@@ -108,6 +108,35 @@ def error(values, reference):
     scale = np.abs(reference).astype(float)
     scale[3:] = np.maximum(scale[3:], 0.1 * abs(reference[2]))
     return float(np.max(np.abs(values - reference) / scale))
+
+
+def reference_error_estimate(rows, shape, friction, reference):
+    """The truncation error of the reference (order L = 3) itself, estimated from the differences
+    d1 = mu(L=1) - mu(3), d2 = mu(2) - mu(3) per coefficient under geometric convergence in L,
+    mu(L) = mu(inf) + C q^L: then d2/d1 = q/(1+q) and mu(3) - mu(inf) = d2 q/(1-q). A coefficient
+    whose differences change sign or do not shrink counts |d2| (q = 1/2), one with q >= 1 counts 1
+    (no convergence seen). Same scaling as error(). rows: accuracy.csv rows (str or float values);
+    L1/L2 from the *_tight runs when present, else the *_default ones."""
+    def values(label):
+        match = [r for r in rows if r["shape"] == shape and r["setting"] == label and r["friction"] == friction]
+        return np.array([float(match[0][k]) for k in NAMES]) if match else None
+    ref = values(reference)
+    mu1 = values("L1_tight") if values("L1_tight") is not None else values("L1_default")
+    mu2 = values("L2_tight") if values("L2_tight") is not None else values("L2_default")
+    if ref is None or mu1 is None or mu2 is None:
+        return float("nan")
+    scale = np.abs(ref)
+    scale[3:] = np.maximum(scale[3:], 0.1 * abs(ref[2]))
+    estimate = 0.0
+    for d1, d2, s in zip(mu1 - ref, mu2 - ref, scale):
+        if d1 * d2 <= 0 or abs(d2) >= abs(d1):
+            e = abs(d2)
+        else:
+            r = d2 / d1
+            q = r / (1 - r)
+            e = abs(d2) * q / (1 - q) if q < 1 else s
+        estimate = max(estimate, min(e / s, 1.0))
+    return estimate
 
 
 def pareto_front(points):
@@ -212,6 +241,14 @@ def write_summary(rows, shapes, labels, reference, name):
                          and x["friction"] == friction]
                 errs.append(f"{match[0]['error']:.1e}" if match else "")
             lines.append(f"| {shape} | {friction} | " + " | ".join(errs) + " |")
+    lines += ["", f"## Estimated error of the reference ({reference}) itself", "",
+              "From the convergence in L above (reference_error_estimate in bench/accuracy.py: geometric",
+              "convergence per coefficient fitted to the L = 1 and L = 2 differences; 1 = no convergence seen).",
+              "bench/accuracy_rule.py adds it to every measured error before it makes a promise.", "",
+              "| shape | plain | lubricated |", "|---|---|---|"]
+    for shape in shapes:
+        lines.append(f"| {shape} | " + " | ".join(f"{reference_error_estimate(rows, shape, f, reference):.1e}"
+                                                 for f in ("plain", "lubricated")) + " |")
     (ROOT / "bench" / f"{name}.md").write_text("\n".join(lines) + "\n")
     print(f"wrote bench/{name}.md, bench/{name}.csv, bench/{name}_pareto.png")
 

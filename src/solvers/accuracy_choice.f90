@@ -27,7 +27,8 @@ contains
 
   !> The cheapest candidate (candidates are stored by increasing cost) whose promised error for
   !> the friction asked for (with or without the lubrication correction) is <= target; if none,
-  !> the one with the smallest promised error, with target_met = .false. Shell-model candidates
+  !> the one with the smallest promised error (of equal ones the costliest, i.e. the one with the
+  !> most accurate settings), with target_met = .false. Shell-model candidates
   !> only when shell_allowed (beads on the unit lattice, no per-bead forces asked for).
   subroutine choose_for_accuracy(target, lubrication, shell_allowed, choice, err)
     real(dp), intent(in) :: target
@@ -43,7 +44,7 @@ contains
     end if
     promised = merge(promised_error_lubricated, promised_error_plain, lubrication)
     if (.not. shell_allowed) where (candidate_shell_layers > 0) promised = huge(1.0_dp)
-    pick = minloc(promised, dim=1)
+    pick = minloc(promised, dim=1, back=.true.)
     choice%target_met = .false.
     do k = 1, n_candidates
       if (promised(k) <= target) then
