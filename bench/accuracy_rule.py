@@ -40,6 +40,14 @@ def main():
     if sys.argv[1:] == ["--check"]:
         return check()
     path = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "bench" / "accuracy.csv"
+    table, shapes, reference = derive(path)
+    output = Path(sys.argv[2]) if len(sys.argv) > 2 else RULE
+    write_module(table, path, shapes, reference, output)
+
+
+def derive(path):
+    """The rule from the benchmark CSV: a list of (cost, label, L, rtol, shell, promise plain,
+    promise lubricated) ordered by cost; the tuning shapes; the reference setting."""
     rows = list(csv.DictReader(path.open()))
     shapes = sorted({r["shape"] for r in rows})
     errors = defaultdict(dict)   # (label, friction) -> shape -> error
@@ -61,8 +69,7 @@ def main():
                    for f in ("plain", "lubricated")]
         table.append((cost, label, order, rtol, shell, *promise))
     table.sort()
-    output = Path(sys.argv[2]) if len(sys.argv) > 2 else RULE
-    write_module(table, path, shapes, reference, output)
+    return table, shapes, reference
 
 
 def check():
