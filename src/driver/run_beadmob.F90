@@ -72,6 +72,7 @@ contains
                                  choice, err)
       if (err%failed) return
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
+      settings%use_symmetry = config%hydrodynamics%use_symmetry
       settings%order = config%hydrodynamics%multipole_order
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
@@ -183,6 +184,8 @@ contains
     write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
       ', preconditioner ' // trim(hydro%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
+    if (any(hydro%solves%source > 0)) write (*, '(a, i0, a, 6i2, a)') '  symmetries of the bead set: ', &
+      hydro%symmetry_group_order, '; motions derived, not solved (from):', hydro%solves%source, ' (0 = solved)'
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients

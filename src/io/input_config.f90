@@ -63,6 +63,9 @@ module beadmob_input_config
     !> overrides it). The friction is variational: its error is ~ the square of this
     !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
     real(dp) :: krylov_rtol = 1.0e-3_dp
+    !> Solve only one rigid motion per orbit of the symmetries of the bead set, derive the others
+    !> (exact; motion_symmetry.F90): 2 of 6 solves for a sphere, 4 for a four-fold axis.
+    logical :: use_symmetry = .true.
     !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the
     !> committed benchmark data say reach it choose L, the shell and the Krylov tolerance
     !> (accuracy_choice.f90). The command-line option -accuracy overrides it.
@@ -161,12 +164,12 @@ contains
     type(hydrodynamics_config_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, shell_layers, status
-    logical :: lubrication, bead_forces
+    logical :: lubrication, bead_forces, use_symmetry
     real(dp) :: lubrication_cutoff, accuracy, krylov_rtol
     character(len=1024) :: cache_file
     character(len=512) :: message
     namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
-                             shell_layers, krylov_rtol, accuracy
+                             shell_layers, krylov_rtol, accuracy, use_symmetry
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -180,6 +183,7 @@ contains
     bead_forces = hydro%bead_forces
     cache_file = hydro%cache_file
     accuracy = hydro%accuracy
+    use_symmetry = hydro%use_symmetry
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -222,6 +226,7 @@ contains
     hydro%shell_layers = shell_layers
     hydro%krylov_rtol = krylov_rtol
     hydro%accuracy = accuracy
+    hydro%use_symmetry = use_symmetry
   end subroutine read_hydrodynamics_group
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
@@ -312,6 +317,7 @@ contains
       '  bead_forces = ' // merge('.true. ', '.false.', config%hydrodynamics%bead_forces) // new_line('a') // &
       '  shell_layers = ' // str(config%hydrodynamics%shell_layers) // new_line('a') // &
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
+      '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
   contains
     !> A comment: the settings above are the ones the target chose, and the text stays a valid

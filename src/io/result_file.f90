@@ -188,6 +188,10 @@ contains
     end do
     call write_attribute(group, 'solve_motions', names, err)
     call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
+    ! 0: solved; m: derived from motion m by a symmetry of the bead set (motion_symmetry.F90).
+    call write_attribute(group, 'solve_source', hydro%solves%source, err)
+    call write_attribute(group, 'symmetry_group_order', hydro%symmetry_group_order, err)
+    call write_attribute(group, 'use_symmetry', merge(1, 0, config%hydrodynamics%use_symmetry), err)
     call write_attribute(group, 'solve_converged_reason', hydro%solves%converged_reason, err)
     call write_attribute(group, 'solve_true_relative_residual', hydro%solves%true_relative_residual, err)
     call write_attribute(group, 'ksp_type', trim(hydro%solves%ksp_type), err)

@@ -21,6 +21,7 @@ module beadmob_friction_job
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
+  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
@@ -49,6 +50,8 @@ module beadmob_friction_job
     integer :: shell_layers = 0
     !> Krylov relative tolerance of the six solves (-ksp_rtol overrides it)
     real(dp) :: krylov_rtol = 1.0e-3_dp
+    !> Derive the motions that symmetries of the bead set give from others instead of solving them
+    logical :: use_symmetry = .true.
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
     !> table_cache.f90): a cached run gives the same numbers to the last bit.
     character(len=1024) :: cache_file = ''
@@ -64,6 +67,9 @@ module beadmob_friction_job
     !> The settings an accuracy target chose (set by the driver; target 0 = none asked for)
     type(accuracy_choice_t) :: accuracy
     integer :: unknowns_per_bead = 0
+    !> Lattice symmetries of the bead set about the reference point (1: none but the identity;
+    !> 0: not looked for, use_symmetry off)
+    integer :: symmetry_group_order = 0
     integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     real(dp) :: near_field_radius = 0.0_dp
@@ -125,6 +131,8 @@ contains
     type(bead_operator_t), target :: direct_op
     type(fft_operator_t), target :: fft_op
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
+    type(motion_symmetry_t), allocatable :: symmetry
+    Vec :: layout
     real(dp), allocatable :: projection(:, :), self(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix, near_field
@@ -207,10 +215,24 @@ contains
     end if
     call mark(2)
 
+    if (settings%use_symmetry) then
+      allocate (symmetry)
+      PetscCallA(MatCreateVecs(matrix, layout, PETSC_NULL_VEC, ierr))
+      call find_motion_symmetry(ctx%comm, basis, centres, reference_point, first, count, layout, symmetry, err)
+      PetscCallA(VecDestroy(layout, ierr))
+      call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
+      if (err%failed) then
+        PetscCallA(PetscLogStagePop(ierr))
+        return
+      end if
+      result%symmetry_group_order = symmetry%group_order
+    end if
     ! Unallocated optional arguments count as absent (Fortran 2008).
     if (settings%bead_forces) allocate (result%bead_forces(36, count))
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                             settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks)
+                             settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
+                             symmetry)
+    if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
     if (.not. allocated(bead_blocks)) then
       PetscCallA(MatDestroy(near_field, ierr))
     end if

@@ -20,6 +20,7 @@ module beadmob_rigid_body_solve
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
+  use beadmob_motion_symmetry, only: motion_symmetry_t, derive_solution
   implicit none
   private
   public :: solve_statistics_t, rigid_body_friction, motion_names
@@ -30,6 +31,8 @@ module beadmob_rigid_body_solve
   type :: solve_statistics_t
     integer :: iterations(6) = 0
     integer :: converged_reason(6) = 0
+    !> 0: solved; else the motion whose solution gave this one by a symmetry (motion_symmetry.F90)
+    integer :: source(6) = 0
     real(dp) :: true_relative_residual(6) = 0.0_dp
     character(len=80) :: ksp_type = '', pc_type = ''
     real(dp) :: relative_tolerance = 0.0_dp
@@ -47,8 +50,10 @@ contains
   !> bead_forces, when present (36 x n_local): column i holds, for motion m = 1..6, the force and
   !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
   !> bead_blocks, when present, is the preconditioner (preconditioning_matrix then unused).
+  !> symmetry, when present, names the motions that follow from others: they are not solved.
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
-                                 reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks)
+                                 reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks, &
+                                 symmetry)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
@@ -60,6 +65,7 @@ contains
     type(solve_statistics_t), intent(out) :: stats
     real(dp), intent(out), optional :: bead_forces(:, :)
     type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
+    type(motion_symmetry_t), intent(in), optional :: symmetry
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -106,10 +112,18 @@ contains
         values(nb * (i - 1) + 1:nb * i) = matmul(projection, rigid_velocity(motion, arm))
       end do
       PetscCallA(VecRestoreArrayF90(rhs(motion), values, ierr))
-      PetscCallA(VecZeroEntries(solution(motion), ierr))
-      PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
-      PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
-      PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
+      if (present(symmetry)) stats%source(motion) = symmetry%source(motion)
+      if (stats%source(motion) > 0) then
+        ! Derived, not solved; its true residual below checks it like a solved one.
+        call derive_solution(symmetry, motion, solution(stats%source(motion)), solution(motion))
+        iterations = 0
+        reason = stats%converged_reason(stats%source(motion))
+      else
+        PetscCallA(VecZeroEntries(solution(motion), ierr))
+        PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
+        PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
+        PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
+      end if
       ! True residual r = c - A q, independent of the preconditioned norm KSP monitors.
       PetscCallA(MatMult(matrix, solution(motion), residual(motion), ierr))
       PetscCallA(VecAYPX(residual(motion), -1.0_dp, rhs(motion), ierr))

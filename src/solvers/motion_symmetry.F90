@@ -1,0 +1,179 @@
+!> Symmetries of the bead set that save Krylov solves. If a lattice symmetry Q (one of the 48
+!> signed axis permutations, about the reference point) maps the bead set onto itself, it maps
+!> Stokes solutions to Stokes solutions: the multipoles of unit motion j = s Q(motion i) are
+!> q_j = s S_Q q_i, where S_Q moves bead b to its image pi(b) and turns its multipoles by D_Q
+!> (lattice_symmetry.f90). A rigid motion (U, W) turns into (Q U, det(Q) Q W) (W is a
+!> pseudo-vector). So only one motion per orbit of the six unit motions under the symmetry group
+!> is solved: 2 of 6 for a sphere or cube, 4 for a body with a four-fold axis, 6 for a body with
+!> mirror planes only (a mirror maps each motion to +-itself).
+!> The group is found from the bead set, never assumed: every symmetry is checked bead by bead,
+!> and every derived solution gets the same true-residual check as a solved one.
+module beadmob_motion_symmetry
+#include "petsc/finclude/petscvec.h"
+  use petscvec
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t
+  use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
+  use beadmob_lattice_symmetry, only: n_symmetries, symmetry_matrix, basis_transforms
+  use beadmob_multipole_basis, only: multipole_basis_t
+  implicit none
+  private
+  public :: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry, symmetry_tolerance
+
+  !> Bead images must land on a bead within this distance (d).
+  real(dp), parameter :: symmetry_tolerance = 1.0e-6_dp
+
+  type :: motion_symmetry_t
+    !> Symmetries of the bead set about the reference point (1: the identity only)
+    integer :: group_order = 1
+    !> Per unit motion: 0 = solved, else the solved motion it is derived from, with the sign and
+    !> the symmetry index (1..48) of motion = sign * Q(source motion)
+    integer :: source(6) = 0, sign(6) = 1, symmetry(6) = 0
+    !> D_Q of each derived motion's symmetry (nb, nb, 6), and the bead permutation as a scatter
+    real(dp), allocatable :: transform(:, :, :)
+    VecScatter :: permute(6)
+  end type motion_symmetry_t
+
+contains
+
+  !> Collective. The symmetries of `centres` (all beads) about reference_point and the motions
+  !> they give for free. `template` is a vector of the operator's layout (nb rows per bead, this
+  !> rank's beads first..first+n_local-1). A bead set off any symmetry gives group_order 1.
+  subroutine find_motion_symmetry(comm, basis, centres, reference_point, first, n_local, template, symmetry, err)
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    integer(i8), intent(in) :: first, n_local
+    Vec, intent(in) :: template
+    type(motion_symmetry_t), intent(out) :: symmetry
+    type(error_t), intent(inout) :: err
+    type(spatial_index_t) :: index
+    integer(i8), allocatable :: image(:, :)
+    logical :: in_group(n_symmetries)
+    real(dp), allocatable :: all_transforms(:, :, :)
+    integer :: s, motion, target, sign, q(3, 3)
+    PetscErrorCode :: ierr
+
+    call build_spatial_index(centres, index, err)
+    if (err%failed) return
+    allocate (image(size(centres, 2), n_symmetries))
+    do s = 1, n_symmetries
+      in_group(s) = maps_onto_itself(symmetry_matrix(s), image(:, s))
+    end do
+    symmetry%group_order = count(in_group)
+
+    ! One solved motion per orbit: the first of it; the others from it.
+    do motion = 1, 6
+      if (symmetry%source(motion) /= 0) cycle
+      do s = 1, n_symmetries
+        if (.not. in_group(s)) cycle
+        q = symmetry_matrix(s)
+        call image_motion(q, motion, target, sign)
+        if (target > motion .and. symmetry%source(target) == 0) then
+          symmetry%source(target) = motion
+          symmetry%sign(target) = sign
+          symmetry%symmetry(target) = s
+        end if
+      end do
+    end do
+    if (all(symmetry%source == 0)) return
+
+    allocate (all_transforms(basis%size, basis%size, n_symmetries), symmetry%transform(basis%size, basis%size, 6))
+    call basis_transforms(basis, all_transforms)
+    do motion = 1, 6
+      if (symmetry%source(motion) == 0) cycle
+      symmetry%transform(:, :, motion) = all_transforms(:, :, symmetry%symmetry(motion))
+      call make_permutation(image(first:first + n_local - 1, symmetry%symmetry(motion)), symmetry%permute(motion))
+    end do
+
+  contains
+
+    !> True if Q maps every bead onto a bead; image(b) = that bead.
+    logical function maps_onto_itself(q, image_of)
+      integer, intent(in) :: q(3, 3)
+      integer(i8), intent(out) :: image_of(:)
+      integer(i8), allocatable :: found(:)
+      integer(i8) :: b, n_found
+      maps_onto_itself = .false.
+      do b = 1, size(centres, 2, kind=i8)
+        call beads_within(index, centres, reference_point + matmul(real(q, dp), centres(:, b) - reference_point), &
+                          symmetry_tolerance, found, n_found)
+        if (n_found /= 1) return
+        image_of(b) = found(1)
+      end do
+      maps_onto_itself = .true.
+    end function maps_onto_itself
+
+    !> The scatter from bead b's rows to bead image(b)'s rows (this rank's beads).
+    subroutine make_permutation(image_of, scatter)
+      integer(i8), intent(in) :: image_of(:)
+      VecScatter, intent(out) :: scatter
+      IS :: from, to
+      PetscInt, allocatable :: blocks(:)
+      PetscInt :: n, first_block
+      n = int(n_local)
+      first_block = int(first - 1)
+      blocks = int(image_of - 1)
+      PetscCallA(ISCreateStride(comm, n * basis%size, first_block * basis%size, 1, from, ierr))
+      PetscCallA(ISCreateBlock(comm, basis%size, n, blocks, PETSC_COPY_VALUES, to, ierr))
+      PetscCallA(VecScatterCreate(template, from, template, to, scatter, ierr))
+      PetscCallA(ISDestroy(from, ierr))
+      PetscCallA(ISDestroy(to, ierr))
+    end subroutine make_permutation
+  end subroutine find_motion_symmetry
+
+  !> Unit motion `motion` (1..3 translations, 4..6 rotations) turned by Q is sign * unit motion
+  !> `target`: translations turn as vectors, rotations as pseudo-vectors (det Q).
+  pure subroutine image_motion(q, motion, target, sign)
+    integer, intent(in) :: q(3, 3), motion
+    integer, intent(out) :: target, sign
+    integer :: axis, row, det
+    axis = motion - 3 * ((motion - 1) / 3)
+    do row = 1, 3
+      if (q(row, axis) /= 0) exit
+    end do
+    det = q(1, 1) * (q(2, 2) * q(3, 3) - q(2, 3) * q(3, 2)) - q(1, 2) * (q(2, 1) * q(3, 3) - q(2, 3) * q(3, 1)) + &
+          q(1, 3) * (q(2, 1) * q(3, 2) - q(2, 2) * q(3, 1))
+    sign = q(row, axis)
+    target = row
+    if (motion > 3) then
+      sign = sign * det
+      target = row + 3
+    end if
+  end subroutine image_motion
+
+  !> Collective. derived = sign S_Q source for a derived motion (symmetry%source(motion) > 0).
+  subroutine derive_solution(symmetry, motion, source, derived)
+    type(motion_symmetry_t), intent(in) :: symmetry
+    integer, intent(in) :: motion
+    Vec, intent(in) :: source
+    Vec, intent(inout) :: derived
+    Vec :: turned
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    integer :: nb, i
+    nb = size(symmetry%transform, 1)
+    PetscCallA(VecDuplicate(source, turned, ierr))
+    PetscCallA(VecCopy(source, turned, ierr))
+    PetscCallA(VecGetArrayF90(turned, values, ierr))
+    do i = 1, size(values) / nb
+      values(nb * (i - 1) + 1:nb * i) = matmul(symmetry%transform(:, :, motion), values(nb * (i - 1) + 1:nb * i))
+    end do
+    PetscCallA(VecRestoreArrayF90(turned, values, ierr))
+    PetscCallA(VecScatterBegin(symmetry%permute(motion), turned, derived, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecScatterEnd(symmetry%permute(motion), turned, derived, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecScale(derived, real(symmetry%sign(motion), dp), ierr))
+    PetscCallA(VecDestroy(turned, ierr))
+  end subroutine derive_solution
+
+  subroutine destroy_motion_symmetry(symmetry)
+    type(motion_symmetry_t), intent(inout) :: symmetry
+    PetscErrorCode :: ierr
+    integer :: motion
+    do motion = 1, 6
+      if (symmetry%source(motion) == 0) cycle
+      PetscCallA(VecScatterDestroy(symmetry%permute(motion), ierr))
+    end do
+    symmetry%source = 0
+  end subroutine destroy_motion_symmetry
+end module beadmob_motion_symmetry
