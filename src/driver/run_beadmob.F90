@@ -73,6 +73,7 @@ contains
       if (err%failed) return
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%use_symmetry = config%hydrodynamics%use_symmetry
+      settings%motions = config%hydrodynamics%motion_requested
       settings%order = config%hydrodynamics%multipole_order
       settings%potential_order = config%hydrodynamics%potential_order
       settings%lubrication = config%hydrodynamics%lubrication
@@ -88,7 +89,10 @@ contains
       ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
       hydro%diagnostics = diagnose_friction(hydro%friction)
       hydro%multipole_diagnostics = diagnose_friction(hydro%multipole_friction)
-      if (ctx%rank == 0) then
+      if (ctx%rank == 0 .and. .not. all(settings%motions)) then
+        write (*, '(a)') "  motions '" // trim(config%hydrodynamics%motions) // "' only: the friction " // &
+          'entries between motions left out and the mobility are not computed (NaN)'
+      else if (ctx%rank == 0) then
         if (config%hydrodynamics%lubrication) call warn(friction_warning(hydro%multipole_diagnostics, &
                                                                          'the order-L friction matrix'))
         call warn(friction_warning(hydro%diagnostics, 'the friction matrix'))
@@ -184,8 +188,9 @@ contains
     write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
       ', preconditioner ' // trim(hydro%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
-    if (any(hydro%solves%source > 0)) write (*, '(a, i0, a, 6i2, a)') '  symmetries of the bead set: ', &
-      hydro%symmetry_group_order, '; motions derived, not solved (from):', hydro%solves%source, ' (0 = solved)'
+    if (any(hydro%solves%source /= 0)) write (*, '(a, i0, a, 6i3, a)') '  symmetries of the bead set: ', &
+      hydro%symmetry_group_order, '; motions derived, not solved (from):', hydro%solves%source, &
+      ' (0 = solved, -1 = not computed)'
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
@@ -196,7 +201,7 @@ contains
     write (*, '(a, f0.1, a)') '  peak memory (largest rank): ', hydro%peak_memory_bytes / 2.0_dp**20, ' MiB'
     write (*, '(a, *(a, f0.2, :, ","))') '  wall time (s):', (' ' // trim(phase_names(phase)) // ' ', &
       hydro%seconds(phase), phase = 1, size(phase_names))
-    if (any(hydro%solves%converged_reason <= 0)) write (error_unit, '(a, 6i4, a)') &
+    if (any(hydro%solves%converged_reason <= 0 .and. hydro%solves%source >= 0)) write (error_unit, '(a, 6i4, a)') &
       'beadmob: warning: not every Krylov solve converged (reasons ', hydro%solves%converged_reason, &
       '); the result file flags it: /hydrodynamics all_converged = 0'
   end subroutine print_mobility

@@ -63,6 +63,11 @@ module beadmob_input_config
     !> overrides it). The friction is variational: its error is ~ the square of this
     !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
     real(dp) :: krylov_rtol = 1.0e-3_dp
+    !> The rigid motions to compute: 'all', or names among U_x U_y U_z W_x W_y W_z ('translations'
+    !> and 'rotations' for three at once). The friction entries between two motions left out, and
+    !> the mobility (which needs all six), are then NaN.
+    character(len=64) :: motions = 'all'
+    logical :: motion_requested(6) = .true.
     !> Solve only one rigid motion per orbit of the symmetries of the bead set, derive the others
     !> (exact; motion_symmetry.F90): 2 of 6 solves for a sphere, 4 for a four-fold axis.
     logical :: use_symmetry = .true.
@@ -167,9 +172,10 @@ contains
     logical :: lubrication, bead_forces, use_symmetry
     real(dp) :: lubrication_cutoff, accuracy, krylov_rtol
     character(len=1024) :: cache_file
+    character(len=64) :: motions
     character(len=512) :: message
     namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
-                             shell_layers, krylov_rtol, accuracy, use_symmetry
+                             shell_layers, krylov_rtol, accuracy, use_symmetry, motions
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -184,6 +190,7 @@ contains
     cache_file = hydro%cache_file
     accuracy = hydro%accuracy
     use_symmetry = hydro%use_symmetry
+    motions = hydro%motions
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -227,7 +234,47 @@ contains
     hydro%krylov_rtol = krylov_rtol
     hydro%accuracy = accuracy
     hydro%use_symmetry = use_symmetry
+    hydro%motions = motions
+    if (.not. err%failed) call parse_motions(motions, source, hydro%motion_requested, err)
   end subroutine read_hydrodynamics_group
+
+  !> &hydrodynamics motions: 'all', or blank-separated motion names (U_x ... W_z, translations,
+  !> rotations); at least one.
+  subroutine parse_motions(text, source, requested, err)
+    character(len=*), intent(in) :: text, source
+    logical, intent(out) :: requested(6)
+    type(error_t), intent(inout) :: err
+    character(len=*), parameter :: names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
+    character(len=len(text)) :: word
+    integer :: start, finish, k
+    requested = trim(adjustl(text)) == 'all'
+    if (all(requested)) return
+    start = 1
+    do while (start <= len_trim(text))
+      if (text(start:start) == ' ') then
+        start = start + 1
+        cycle
+      end if
+      finish = index(text(start:) // ' ', ' ') + start - 2
+      word = text(start:finish)
+      select case (trim(word))
+      case ('translations')
+        requested(1:3) = .true.
+      case ('rotations')
+        requested(4:6) = .true.
+      case default
+        k = findloc(names, trim(word), dim=1)
+        if (k == 0) then
+          call raise(err, source // ": &hydrodynamics motions: unknown motion '" // trim(word) // &
+                     "' (use 'all' or names among U_x U_y U_z W_x W_y W_z translations rotations)")
+          return
+        end if
+        requested(k) = .true.
+      end select
+      start = finish + 2
+    end do
+    if (.not. any(requested)) call raise(err, source // ': &hydrodynamics motions names no motion')
+  end subroutine parse_motions
 
   subroutine read_shape_group(lines, source, shape_config, found, err)
     character(len=*), intent(in) :: lines(:), source
@@ -318,6 +365,7 @@ contains
       '  shell_layers = ' // str(config%hydrodynamics%shell_layers) // new_line('a') // &
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
       '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
+      "  motions = '" // trim(config%hydrodynamics%motions) // "'" // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
   contains
     !> A comment: the settings above are the ones the target chose, and the text stays a valid

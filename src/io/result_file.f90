@@ -199,7 +199,10 @@ contains
     call write_attribute(group, 'ksp_relative_tolerance', hydro%solves%relative_tolerance, err)
     call write_attribute(group, 'plain_symmetry_error', hydro%solves%plain_symmetry_error, err)
     call write_attribute(group, 'variational_correction', hydro%solves%variational_correction, err)
-    call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0)), err)
+    ! Motions not computed (solve_source -1) have no solve to converge.
+    call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0 .or. &
+                                                                  hydro%solves%source < 0)), err)
+    call write_attribute(group, 'motions', trim(config%hydrodynamics%motions), err)
     call write_attribute(group, 'operator', trim(hydro%operator_name), err)
     call write_attribute(group, 'near_field_radius', hydro%near_field_radius, err)
     call write_attribute(group, 'near_field_cluster', hydro%near_field_cluster, err)

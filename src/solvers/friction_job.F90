@@ -4,6 +4,7 @@
 module beadmob_friction_job
 #include "petsc/finclude/petscmat.h"
   use petscmat
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -52,6 +53,9 @@ module beadmob_friction_job
     real(dp) :: krylov_rtol = 1.0e-3_dp
     !> Derive the motions that symmetries of the bead set give from others instead of solving them
     logical :: use_symmetry = .true.
+    !> The rigid motions to compute (U_x U_y U_z W_x W_y W_z); friction entries between two left
+    !> out are NaN
+    logical :: motions(6) = .true.
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
     !> table_cache.f90): a cached run gives the same numbers to the last bit.
     character(len=1024) :: cache_file = ''
@@ -103,6 +107,10 @@ contains
     logical, allocatable :: keep(:)
     integer :: i
 
+    if (settings%bead_forces .and. .not. all(settings%motions)) then
+      call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
+      return
+    end if
     if (settings%shell_layers == 0) then
       call friction_of_beads(ctx, settings, centres, reference_point, result, err)
       return
@@ -231,8 +239,12 @@ contains
     if (settings%bead_forces) allocate (result%bead_forces(36, count))
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
                              settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
-                             symmetry)
+                             symmetry, settings%motions)
     if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
+    do phase = 1, 6   ! entries between two motions not computed are unknown
+      where (result%solves%source < 0 .and. result%solves%source(phase) < 0) &
+        result%multipole_friction(:, phase) = ieee_value(1.0_dp, ieee_quiet_nan)
+    end do
     if (.not. allocated(bead_blocks)) then
       PetscCallA(MatDestroy(near_field, ierr))
     end if

@@ -31,7 +31,8 @@ module beadmob_rigid_body_solve
   type :: solve_statistics_t
     integer :: iterations(6) = 0
     integer :: converged_reason(6) = 0
-    !> 0: solved; else the motion whose solution gave this one by a symmetry (motion_symmetry.F90)
+    !> 0: solved; m > 0: derived from motion m by a symmetry (motion_symmetry.F90); -1: not
+    !> computed (not requested; its true residual is then recorded as -1)
     integer :: source(6) = 0
     real(dp) :: true_relative_residual(6) = 0.0_dp
     character(len=80) :: ksp_type = '', pc_type = ''
@@ -51,9 +52,12 @@ contains
   !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
   !> bead_blocks, when present, is the preconditioner (preconditioning_matrix then unused).
   !> symmetry, when present, names the motions that follow from others: they are not solved.
+  !> requested, when present, names the motions to compute (with the sources of requested
+  !> derived ones); friction(m, n) = c_m . q_n for m not computed, n computed (first order in
+  !> the solver error, the variational form needs q_m), and 0 where neither is computed.
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
                                  reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks, &
-                                 symmetry)
+                                 symmetry, requested)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
@@ -66,6 +70,8 @@ contains
     real(dp), intent(out), optional :: bead_forces(:, :)
     type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
     type(motion_symmetry_t), intent(in), optional :: symmetry
+    logical, intent(in), optional :: requested(6)
+    logical :: computed(6)
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -103,6 +109,20 @@ contains
       PetscCallA(VecDuplicate(template, residual(motion), ierr))
     end do
 
+    if (present(symmetry)) stats%source = symmetry%source
+    computed = .true.
+    if (present(requested)) then
+      computed = requested
+      do motion = 1, 6
+        if (requested(motion) .and. stats%source(motion) > 0) computed(stats%source(motion)) = .true.
+      end do
+      do motion = 1, 6   ! a source left out: its derived motions are solved themselves
+        if (stats%source(motion) > 0) then
+          if (.not. computed(stats%source(motion))) stats%source(motion) = 0
+        end if
+      end do
+      where (.not. computed) stats%source = -1
+    end if
     do motion = 1, 6
       ! c_i = projection (U_i, Omega_i), U_i = V + w x (R_i - R_0), Omega_i = w.
       PetscCallA(VecGetArrayF90(rhs(motion), values, ierr))
@@ -112,8 +132,15 @@ contains
         values(nb * (i - 1) + 1:nb * i) = matmul(projection, rigid_velocity(motion, arm))
       end do
       PetscCallA(VecRestoreArrayF90(rhs(motion), values, ierr))
-      if (present(symmetry)) stats%source(motion) = symmetry%source(motion)
-      if (stats%source(motion) > 0) then
+      if (stats%source(motion) < 0) then
+        ! Not computed: q = 0, r = c, so the friction formula below gives c_m . q_n with others.
+        PetscCallA(VecZeroEntries(solution(motion), ierr))
+        PetscCallA(VecCopy(rhs(motion), residual(motion), ierr))
+        stats%iterations(motion) = 0
+        stats%converged_reason(motion) = 0
+        stats%true_relative_residual(motion) = -1.0_dp
+        cycle
+      else if (stats%source(motion) > 0) then
         ! Derived, not solved; its true residual below checks it like a solved one.
         call derive_solution(symmetry, motion, solution(stats%source(motion)), solution(motion))
         iterations = 0
