@@ -244,12 +244,20 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
     The 6x6 matrices are read as stored: beadmob writes them so that C-order readers (h5py)
     see [row, column] (README, section "Output"). ``bead_forces`` (N x 36) is not read.
     """
+    # A run of some motions only (&hydrodynamics motions) leaves the friction entries between two
+    # motions not computed NaN and has no mobility: those items then read as absent.
+    partial = decode_value(group.attrs.get("motions", "all")) not in ("all", b"all")
+
     def optional(name: str, shape: tuple[int, ...]) -> np.ndarray | None:
-        if name not in group:
+        if name not in group or (partial and name != "multipole_friction"):
             return None
         return _read_only(_read_float_array(path, group, name, expected_shape=shape))
 
-    friction = _read_only(_read_float_array(path, group, "friction", expected_shape=(6, 6)))
+    friction = _read_only(_read_float_array(path, group, "friction", expected_shape=(6, 6), allow_nan=partial))
+    multipole_friction = None
+    if "multipole_friction" in group:
+        multipole_friction = _read_only(_read_float_array(path, group, "multipole_friction", expected_shape=(6, 6),
+                                                          allow_nan=partial))
     return Hydrodynamics(
         friction=friction,
         mobility=optional("mobility", (6, 6)),
@@ -257,7 +265,7 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
         body_mobility=optional("body_mobility", (6, 6)),
         coefficients=optional("coefficients", (5,)),
         attributes={name: decode_value(value) for name, value in group.attrs.items()},
-        multipole_friction=optional("multipole_friction", (6, 6)),
+        multipole_friction=multipole_friction,
         multipole_coefficients=optional("multipole_coefficients", (5,)),
         centre_of_mobility=optional("centre_of_mobility", (3,)),
         mobility_at_centre_of_mobility=optional("mobility_at_centre_of_mobility", (6, 6)),
@@ -314,8 +322,10 @@ def _read_float_array(
     group: h5py.Group,
     name: str,
     expected_shape: tuple[int, ...] | None = None,
+    allow_nan: bool = False,
 ) -> np.ndarray:
-    """Read dataset ``name`` of ``group`` as finite float64, checking its shape if given."""
+    """Read dataset ``name`` of ``group`` as finite float64 (NaN allowed with ``allow_nan``: the
+    entries a partial run did not compute), checking its shape if given."""
     item = group.get(name)
     where = f"{group.name}/{name}"
     if not isinstance(item, h5py.Dataset):
@@ -327,7 +337,7 @@ def _read_float_array(
         raise ResultFileError(
             f"{path}: dataset {where} has shape {values.shape}, expected {expected_shape}"
         )
-    if not np.all(np.isfinite(values)):
+    if not np.all(np.isfinite(values) | (allow_nan & np.isnan(values))):
         raise ResultFileError(f"{path}: dataset {where} holds non-finite values")
     return values
 
