@@ -101,7 +101,8 @@ def read(shape, label, path=None):
         return dict(plain=np.asarray(g["multipole_coefficients"][()]), lubricated=np.asarray(g["coefficients"][()]),
                     iterations=int(np.sum(g.attrs["solve_iterations"])), n=int(f["geometry"].attrs["n_beads"]),
                     hydro_beads=int(g.attrs.get("hydrodynamic_beads", f["geometry"].attrs["n_beads"])),
-                    converged=bool(g.attrs["all_converged"]))
+                    converged=bool(g.attrs["all_converged"]), build=f.attrs["git_hash"].decode()
+                    if isinstance(f.attrs["git_hash"], bytes) else str(f.attrs["git_hash"]))
 
 
 def error(values, reference):
@@ -171,7 +172,7 @@ def main():
                 rows.append(dict(shape=shape, setting=label, friction=friction, n_beads=r["n"],
                                  hydrodynamic_beads=r["hydro_beads"], wall_s=float(np.median(walls[label])),
                                  wall_min_s=min(walls[label]), wall_max_s=max(walls[label]), runs=len(walls[label]),
-                                 iterations=r["iterations"], converged=r["converged"],
+                                 iterations=r["iterations"], converged=r["converged"], build=r["build"],
                                  error=error(r[friction], reference[friction]),
                                  **{name: v for name, v in zip(NAMES, r[friction])}))
     with open(ROOT / "bench" / f"{args.name}.csv", "w", newline="") as out:
@@ -193,7 +194,8 @@ def write_summary(rows, shapes, labels, reference, name):
              f"Reference per shape: `{reference}` = {SETTINGS[reference][0]}, {SETTINGS[reference][1]}.",
              "Error: largest relative change of the paper's five",
              "coefficients against the reference (couplings relative to max(|mu|, 0.1 mu33)); wall time of the",
-             "whole run on 2 ranks, median of the repeated runs (the reference: one run).", "",
+             "whole run on 2 ranks, median of the repeated runs (the reference: one run).",
+             f"Runs made by beadmob {', '.join(sorted({r['build'] for r in rows}))} (git hash at build time).", "",
              "## Error and time per setting (order-L friction, without the lubrication correction)", "",
              "| setting | " + " | ".join(shapes) + " | median time ratio to L2_default |",
              "|---|" + "---|" * (len(shapes) + 1)]
