@@ -225,6 +225,12 @@ def write_summary(rows, shapes, labels, reference, name):
                   ms=3, label=shape)
         default = next(x for x in pts if x["setting"] == "L2_default")
         ax.loglog([default["wall_s"]], [max(default["error"], 1e-12)], "*", color=line.get_color(), ms=10)
+    from matplotlib.ticker import NullFormatter
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    reference_error = max(reference_error_estimate(rows, shape, "plain", reference) for shape in shapes)
+    ax.axhline(reference_error, color="k", ls="--", lw=0.8)
+    ax.text(ax.get_xlim()[0] * 1.05, reference_error * 1.15, f"estimated error of {reference} itself (largest)",
+            fontsize=7)
     ax.set_xlabel("wall time, 2 ranks (s)")
     ax.set_ylabel("max relative coefficient error")
     ax.set_title(f"Settings against {reference} (star: default)")
