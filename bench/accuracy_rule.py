@@ -115,6 +115,10 @@ end module beadmob_accuracy_rule
     # Fortran lines must stay under the compiler's limit: break the long array constructors.
     lines = []
     for line in text.splitlines():
+        if line.startswith("!>"):   # comments: wrapped as comments
+            import textwrap
+            lines += textwrap.wrap(line[2:], 100, initial_indent="!>", subsequent_indent="!> ")
+            continue
         while len(line) > 120:
             cut = line.rfind(", ", 0, 115) + 1
             lines.append(line[:cut] + " &")
