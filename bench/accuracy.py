@@ -98,7 +98,9 @@ def run(exe, shape, label, repeats, force, reference):
 def read(shape, label, path=None):
     with h5py.File(path or RUNS / f"{shape}_{label}.h5") as f:
         g = f["hydrodynamics"]
-        return dict(plain=np.asarray(g["multipole_coefficients"][()]), lubricated=np.asarray(g["coefficients"][()]),
+        # Without the correction the file has only `coefficients` (the order-L ones).
+        plain = g["multipole_coefficients"] if "multipole_coefficients" in g else g["coefficients"]
+        return dict(plain=np.asarray(plain[()]), lubricated=np.asarray(g["coefficients"][()]),
                     iterations=int(np.sum(g.attrs["solve_iterations"])), n=int(f["geometry"].attrs["n_beads"]),
                     hydro_beads=int(g.attrs.get("hydrodynamic_beads", f["geometry"].attrs["n_beads"])),
                     converged=bool(g.attrs["all_converged"]), build=f.attrs["git_hash"].decode()
