@@ -44,7 +44,7 @@ def run(exe, body, size):
     h5 = RUNS / f"{tag}.h5"
     if not h5.exists():
         (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(body, size)}\n"
-                                         "&hydrodynamics multipole_order = 2, lubrication = .true. /\n")
+                                         "&hydrodynamics multipole_order = 2, lubrication = .true., shell_layers = 0 /\n")
         env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
         start = time.perf_counter()
         with open(RUNS / f"{tag}.log", "w") as log:

@@ -7,7 +7,7 @@ module beadmob_run
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
-  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source
+  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_shell_layers, is_set
   use beadmob_bead_model, only: bead_model_t
   use beadmob_shape_catalog, only: build_bead_model
   use beadmob_geometry_checks, only: check_bead_model
@@ -71,6 +71,8 @@ contains
       call apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_unit_lattice(model%centres), &
                                  choice, err)
       if (err%failed) return
+      if (.not. is_set(config%hydrodynamics%shell_layers)) config%hydrodynamics%shell_layers = &
+        merge(default_shell_layers, 0, on_unit_lattice(model%centres) .and. .not. config%hydrodynamics%bead_forces)
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%use_symmetry = config%hydrodynamics%use_symmetry
       settings%motions = config%hydrodynamics%motion_requested

@@ -9,11 +9,16 @@ module beadmob_input_config
   implicit none
   private
   public :: run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
-  public :: default_output_path, built_in_source
+  public :: default_output_path, built_in_source, default_shell_layers
 
   real(dp), parameter :: unset_real = -huge(1.0_dp)
   integer, parameter :: unset_int = -huge(1)
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
+  !> The default shell: one surface layer. On the benchmark (bench/accuracy.md) it is on the
+  !> Pareto front of every tuning shape, about 20 % cheaper than the full model, and its largest
+  !> error against L = 3 (2.7e-3) is that of the full model (2.8e-3): at L = 2 the interior beads
+  !> add truncation error (their contacts) and next to nothing to the rigid-body friction.
+  integer, parameter :: default_shell_layers = 1
   !> The `source` of a run without an input file.
   character(len=*), parameter :: built_in_source = 'built-in default'
   character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
@@ -58,7 +63,9 @@ module beadmob_input_config
     !> working directory); '' = the environment variable BEADMOB_CACHE, else no cache.
     character(len=1024) :: cache_file = ''
     !> Shell model: only the beads within this many layers of the surface take part (0 = all).
-    integer :: shell_layers = 0
+    !> Unset: default_shell_layers for beads on the lattice without bead_forces, else 0 (resolved
+    !> by the driver, which knows the beads).
+    integer :: shell_layers = unset_int
     !> Relative tolerance of the Krylov solves (PETSc's -ksp_rtol, given on the command line,
     !> overrides it). The friction is variational: its error is ~ the square of this
     !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
@@ -221,7 +228,7 @@ contains
     else if (.not. (lubrication_cutoff >= 1.0_dp .and. lubrication_cutoff <= 10.0_dp)) then
       call raise(err, source // ': &hydrodynamics lubrication_cutoff must be between 1 and 10 (bead diameters), got ' &
                  // str(lubrication_cutoff))
-    else if (shell_layers < 0) then
+    else if (is_set(shell_layers) .and. shell_layers < 0) then
       call raise(err, source // ': &hydrodynamics shell_layers must be >= 0 (0 = all beads), got ' // str(shell_layers))
     end if
     hydro%multipole_order = multipole_order
