@@ -6,9 +6,8 @@ measure). The torus and the spheroid are not in the tuning data of the rule.
 
     python3 bench/accuracy_check.py [--shapes a,b,...] [--targets 1e-1,...] [--exe build/beadmob]
 
-Needs the reference runs (python3 bench/accuracy.py makes them; torus and spheroid:
---shapes torus,spheroid --settings L2_default --name scratch). Runs go to
-bench/accuracy_runs/check_*; writes bench/accuracy_check.md and .csv.
+Makes the reference run of a shape when bench/accuracy.py has not (the torus and the spheroid).
+Runs go to bench/accuracy_runs/check_*; writes bench/accuracy_check.md and .csv.
 """
 import argparse
 import csv
@@ -21,6 +20,7 @@ from pathlib import Path
 import h5py
 
 from accuracy import PAPER_SHAPES, ROOT, RUNS, error, read, shape_group
+from accuracy import run as accuracy_run
 from accuracy_rule import derive
 
 
@@ -72,6 +72,7 @@ def main():
     targets = args.targets or default_targets()
     rows = []
     for shape in args.shapes.split(","):
+        accuracy_run(args.exe, shape, args.reference, 1, False, args.reference)   # kept when already made
         reference = read(shape, args.reference)
         for lubrication in (False, True) if shape in args.lubricated.split(",") else (False,):
             friction = "lubricated" if lubrication else "plain"

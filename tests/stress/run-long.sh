@@ -2,7 +2,7 @@
 # The long stress tests (label stress_long, docs/stress_tests.md): a Release build with
 # -DBEADMOB_LONG_TESTS=ON into BUILD_DIR (default build-stress), then ctest -L stress_long (CTest
 # adds the default-suite runs these checks compare with). Extra arguments go to ctest.
-# The 1000-bead chain needs ~3.9 GB of memory per rank (block table, see docs/stress_tests.md).
+# The 1000-bead chain took 3.9 GB per rank before the block-table fix; now ~60 MB (docs/stress_tests.md).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build_dir=${BUILD_DIR:-$root/build-stress}
