@@ -113,6 +113,7 @@ contains
       PetscInt :: n, first_block
       n = int(n_local)
       first_block = int(first - 1)
+      allocate (blocks(size(image_of)))
       blocks = int(image_of - 1)
       PetscCallA(ISCreateStride(comm, n * basis%size, first_block * basis%size, 1, from, ierr))
       PetscCallA(ISCreateBlock(comm, basis%size, n, blocks, PETSC_COPY_VALUES, to, ierr))
