@@ -37,6 +37,8 @@ EXTRA_SHAPES = {"sphere": "&shape name = 'sphere', radius = 10 /",
                 "spheroid": "&shape name = 'spheroid', semi_axes = 18, 8, 8 /"}
 # label -> (&hydrodynamics entries, extra command-line options)
 SETTINGS = {
+    "L6_tight": ("multipole_order = 6, shell_layers = 0", "-ksp_rtol 1e-7"),
+    "L5_tight": ("multipole_order = 5, shell_layers = 0", "-ksp_rtol 1e-7"),
     "L4_tight": ("multipole_order = 4, shell_layers = 0", "-ksp_rtol 1e-7"),
     "L3_tight": ("multipole_order = 3, shell_layers = 0", "-ksp_rtol 1e-7"),
     "L2_tight": ("multipole_order = 2, shell_layers = 0", "-ksp_rtol 1e-7"),
@@ -65,6 +67,19 @@ DEFAULT_LABEL = "L2_shell1"
 NAMES = ["mu11", "mu22", "mu33", "mu42", "mu51"]
 
 
+def launch(exe, runs, tag, text, options=()):
+    """Writes runs/TAG.nml (text) and runs beadmob on it on 2 ranks in runs/ (output to TAG.log);
+    returns the wall time (s). A failed run raises."""
+    runs.mkdir(parents=True, exist_ok=True)
+    (runs / f"{tag}.nml").write_text(text)
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    start = time.perf_counter()
+    with open(runs / f"{tag}.log", "w") as log:
+        subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options], cwd=runs, stdout=log,
+                       stderr=subprocess.STDOUT, env=env, check=True)
+    return time.perf_counter() - start
+
+
 def shape_group(shape):
     if shape in EXTRA_SHAPES:
         return EXTRA_SHAPES[shape]
@@ -76,23 +91,15 @@ def shape_group(shape):
 
 def run(exe, shape, label, repeats, force, reference):
     """Runs beadmob for (shape, setting) `repeats` times; returns the wall times (s)."""
-    RUNS.mkdir(parents=True, exist_ok=True)
     tag = f"{shape}_{label}"
     h5, times_file = RUNS / f"{tag}.h5", RUNS / f"{tag}.times"
     if not force and h5.exists() and times_file.exists():
         return [float(t) for t in times_file.read_text().split()]
     hydro, options = SETTINGS[label]
-    (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n"
-                                     f"&hydrodynamics {hydro}, lubrication = .true. /\n")
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    walls = []
+    text = f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n&hydrodynamics {hydro}, lubrication = .true. /\n"
     # Tight and L = 3 settings: one run each (minutes per run; the runs column says so).
-    for _ in range(1 if label == reference or label.endswith("_tight") or label.startswith("L3") else repeats):
-        start = time.perf_counter()
-        with open(RUNS / f"{tag}.log", "w") as log:
-            subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options.split()], cwd=RUNS,
-                           stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
-        walls.append(time.perf_counter() - start)
+    walls = [launch(exe, RUNS, tag, text, options.split())
+             for _ in range(1 if label == reference or label.endswith("_tight") or label.startswith("L3") else repeats)]
     times_file.write_text(" ".join(f"{w:.3f}" for w in walls))
     print(f"accuracy: {tag} {np.median(walls):.1f} s", flush=True)
     return walls

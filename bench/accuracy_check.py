@@ -13,13 +13,11 @@ import argparse
 import csv
 import math
 import os
-import subprocess
-import time
 from pathlib import Path
 
 import h5py
 
-from accuracy import PAPER_SHAPES, ROOT, RUNS, error, read, shape_group
+from accuracy import PAPER_SHAPES, ROOT, RUNS, error, launch, read, shape_group
 from accuracy import run as accuracy_run
 from accuracy_rule import derive
 
@@ -44,14 +42,9 @@ def run(exe, shape, target, lubrication):
     tag = f"check_{shape}_{target}_{'lub' if lubrication else 'plain'}"
     h5 = RUNS / f"{tag}.h5"
     if not h5.exists():
-        (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n"
-                                         f"&hydrodynamics lubrication = {'.true.' if lubrication else '.false.'} /\n")
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-        start = time.perf_counter()
-        with open(RUNS / f"{tag}.log", "w") as log:
-            subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", "--accuracy", target], cwd=RUNS,
-                           stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
-        (RUNS / f"{tag}.times").write_text(f"{time.perf_counter() - start:.3f}")
+        text = (f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n"
+                f"&hydrodynamics lubrication = {'.true.' if lubrication else '.false.'} /\n")
+        (RUNS / f"{tag}.times").write_text(f"{launch(exe, RUNS, tag, text, ['--accuracy', target]):.3f}")
     with h5py.File(h5) as f:
         a = f["hydrodynamics"].attrs
         choice = dict(setting=a["accuracy_setting"].decode() if isinstance(a["accuracy_setting"], bytes)

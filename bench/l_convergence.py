@@ -14,11 +14,12 @@ bench/l_convergence.md and .csv.
 import argparse
 import csv
 import os
-import subprocess
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from accuracy import launch
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "bench" / "l_convergence_runs"
@@ -31,16 +32,12 @@ REFERENCE = 8
 
 
 def friction(exe, body, order):
-    RUNS.mkdir(parents=True, exist_ok=True)
     tag = f"{body}_L{order}"
     h5 = RUNS / f"{tag}.h5"
     if not h5.exists():
-        (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{BODIES[body]}\n"
-                                         f"&hydrodynamics multipole_order = {order}, lubrication = .true., shell_layers = 0 /\n")
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-        with open(RUNS / f"{tag}.log", "w") as log:
-            subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", "-ksp_rtol", "1e-10"], cwd=RUNS,
-                           stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
+        launch(exe, RUNS, tag, f"&run output = '{tag}.h5' /\n{BODIES[body]}\n"
+               f"&hydrodynamics multipole_order = {order}, lubrication = .true., shell_layers = 0 /\n",
+               ["-ksp_rtol", "1e-10"])
     with h5py.File(h5) as f:
         g = f["hydrodynamics"]
         return {"plain": np.diag(g["multipole_friction"][()]), "lubricated": np.diag(g["friction"][()])}

@@ -19,12 +19,12 @@ import argparse
 import csv
 import math
 import os
-import subprocess
-import time
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from accuracy import launch
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "bench" / "resolution_runs"
@@ -39,18 +39,12 @@ def shape_group(body, size):
 
 
 def run(exe, body, size):
-    RUNS.mkdir(parents=True, exist_ok=True)
     tag = f"{body}_{size}"
     h5 = RUNS / f"{tag}.h5"
     if not h5.exists():
-        (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(body, size)}\n"
-                                         "&hydrodynamics multipole_order = 2, lubrication = .true., shell_layers = 0 /\n")
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-        start = time.perf_counter()
-        with open(RUNS / f"{tag}.log", "w") as log:
-            subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", "-ksp_rtol", "1e-4"], cwd=RUNS,
-                           stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
-        (RUNS / f"{tag}.times").write_text(f"{time.perf_counter() - start:.3f}")
+        text = (f"&run output = '{tag}.h5' /\n{shape_group(body, size)}\n"
+                "&hydrodynamics multipole_order = 2, lubrication = .true., shell_layers = 0 /\n")
+        (RUNS / f"{tag}.times").write_text(f"{launch(exe, RUNS, tag, text, ['-ksp_rtol', '1e-4']):.3f}")
     with h5py.File(h5) as f:
         g = f["hydrodynamics"]
         return dict(n=int(f["geometry"].attrs["n_beads"]), wall=float((RUNS / f"{tag}.times").read_text()),

@@ -15,14 +15,12 @@ Writes bench/skips.md and .csv; runs go to bench/skips_runs/.
 import argparse
 import csv
 import os
-import subprocess
-import time
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from accuracy import ROOT, error, shape_group
+from accuracy import ROOT, error, launch, shape_group
 
 RUNS = ROOT / "bench" / "skips_runs"
 VARIANTS = {"default": ("", ""),
@@ -37,14 +35,9 @@ VARIANTS = {"default": ("", ""),
 def run_once(exe, shape, variant):
     tag = f"{shape}_{variant.replace(' ', '_').replace(',', '')}"
     hydro, options = VARIANTS[variant]
-    (RUNS / f"{tag}.nml").write_text(f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n"
-                                     f"&hydrodynamics {hydro} /\n")
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    start = time.perf_counter()
-    with open(RUNS / f"{tag}.log", "w") as log:
-        subprocess.run(["mpirun", "-n", "2", str(exe), f"{tag}.nml", *options.split()], cwd=RUNS, stdout=log,
-                       stderr=subprocess.STDOUT, env=env, check=True)
-    return time.perf_counter() - start, RUNS / f"{tag}.h5"
+    wall = launch(exe, RUNS, tag, f"&run output = '{tag}.h5' /\n{shape_group(shape)}\n&hydrodynamics {hydro} /\n",
+                  options.split())
+    return wall, RUNS / f"{tag}.h5"
 
 
 def summary(path):
