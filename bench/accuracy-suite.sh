@@ -17,6 +17,8 @@ bash scripts/build.sh                    # the rule just made, built in
 python3 bench/accuracy_check.py
 python3 bench/accuracy.py --shapes arrowhead,sphere --reference L4_tight --repeats 1 --name reference_check \
   --settings L1_tight,L2_rtol1e-2,L2_shell1,L2_shell2,L2_default,L2_tight,L3_default,L3_tight
+python3 bench/accuracy.py --shapes arrowhead --reference L6_tight --repeats 1 --name l_convergence_arrowhead \
+  --settings L1_tight,L2_tight,L2_shell1,L2_default,L3_tight,L4_tight,L5_tight
 python3 bench/l_convergence.py
 python3 bench/resolution.py
 python3 bench/skips.py

@@ -70,7 +70,7 @@ def main():
         for lubrication in (False, True) if shape in args.lubricated.split(",") else (False,):
             friction = "lubricated" if lubrication else "plain"
             # With the correction no promise below 1 is made (bench/accuracy.md: the lubricated
-            # friction of dense bodies does not converge in L), every target falls back to the
+            # friction of dense bodies converges far more slowly in L), every target falls back to the
             # most accurate settings: one target shows it.
             for target in targets.split(",") if not lubrication else ["1e-2"]:
                 choice, wall, values = run(args.exe, shape, target, lubrication)
