@@ -80,6 +80,14 @@ def launch(exe, runs, tag, text, options=()):
     return time.perf_counter() - start
 
 
+def write_csv(path, rows):
+    """rows (dicts with the same keys) as a CSV file with a header line."""
+    with open(path, "w", newline="") as out:
+        writer = csv.DictWriter(out, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def shape_group(shape):
     if shape in EXTRA_SHAPES:
         return EXTRA_SHAPES[shape]
@@ -187,10 +195,7 @@ def main():
                                  iterations=r["iterations"], converged=r["converged"], build=r["build"],
                                  error=error(r[friction], reference[friction]),
                                  **{name: v for name, v in zip(NAMES, r[friction])}))
-    with open(ROOT / "bench" / f"{args.name}.csv", "w", newline="") as out:
-        writer = csv.DictWriter(out, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(ROOT / "bench" / f"{args.name}.csv", rows)
     write_summary(rows, shapes, labels, args.reference, args.name)
 
 

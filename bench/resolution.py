@@ -16,7 +16,6 @@ L/d = 11, 21, 31, 41 bead diameters across, at multipole order 2 (-ksp_rtol 1e-4
 Runs go to bench/resolution_runs/ (kept); writes bench/resolution.md, .csv and _plot.png.
 """
 import argparse
-import csv
 import math
 import os
 from pathlib import Path
@@ -24,7 +23,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from accuracy import launch
+from accuracy import launch, write_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "bench" / "resolution_runs"
@@ -76,10 +75,7 @@ def main():
                                  stokes_rotation=np.trace(z[3:, 3:]) / 3 / (8 * math.pi * radius ** 3),
                                  **{f"mu{k}": v for k, v in zip(("11", "22", "33", "42", "51"),
                                                                  r[friction]["coefficients"])}))
-    with open(ROOT / "bench" / "resolution.csv", "w", newline="") as out:
-        writer = csv.DictWriter(out, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(ROOT / "bench" / "resolution.csv", rows)
     write_summary(rows)
 
 

@@ -36,7 +36,7 @@ contains
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
     type(accuracy_choice_t) :: choice
-    logical :: geometry_only, accuracy_given, rtol_given
+    logical :: geometry_only, accuracy_given, rtol_given, on_lattice
     character(len=64) :: accuracy
     character(len=:), allocatable :: text, source
 
@@ -68,11 +68,11 @@ contains
     if (geometry_only) config%hydrodynamics%enabled = .false.
     if (config%hydrodynamics%enabled) then
       ! Same options and input on every rank: the same choice (or error) everywhere.
-      call apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_unit_lattice(model%centres), &
-                                 choice, err)
+      on_lattice = on_unit_lattice(model%centres)
+      call apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_lattice, choice, err)
       if (err%failed) return
       if (.not. is_set(config%hydrodynamics%shell_layers)) config%hydrodynamics%shell_layers = &
-        merge(default_shell_layers, 0, on_unit_lattice(model%centres) .and. .not. config%hydrodynamics%bead_forces)
+        merge(default_shell_layers, 0, on_lattice .and. .not. config%hydrodynamics%bead_forces)
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%use_symmetry = config%hydrodynamics%use_symmetry
       settings%motions = config%hydrodynamics%motion_requested
