@@ -1,9 +1,12 @@
 !> The two-bead blocks an operator product needs, computed once. Beads on a cubic lattice of
 !> spacing d (the paper's models) have blocks that depend on the integer lattice displacement
 !> only: one table over the displacement box [-span, span]^3 serves every pair. Quadrature is done
-!> only for displacements that the 48 lattice symmetries and A(-r) = A(r)^T (theory.md T4) do not
-!> relate, shared over the MPI ranks. Off-lattice bead sets
-!> (bead files) store the blocks of this rank's rows for every column bead instead.
+!> only for the canonical displacements (d_1 >= d_2 >= d_3 >= 0), shared over the MPI ranks; every
+!> other block follows by a lattice symmetry, A(Q c) = D_Q A(c) D_Q^T (theory.md T4).
+!> Two forms: the compact one keeps the canonical blocks and the D_Q only (O(span^3 / 6) blocks,
+!> what the FFT operator needs: each rank forms the blocks of its own FFT slab from it), the
+!> expanded one also the whole displacement box (the direct operator's lookups). Off-lattice bead
+!> sets (bead files) store the blocks of this rank's rows for every column bead instead.
 !> With a table cache file (table_cache.f90) the canonical blocks of earlier runs are read from it
 !> and only the missing ones computed; the file then gets the union.
 module beadmob_block_table
@@ -19,7 +22,7 @@ module beadmob_block_table
   implicit none
   private
   public :: block_table_t, make_block_table, table_block_index, lattice_tolerance, on_unit_lattice, block_cache_key
-  public :: block_formula_version
+  public :: block_formula_version, lattice_block, lattice_block_entries, canonical_count
 
   !> Beads are on the lattice when every centre is within this distance (d) of a lattice point.
   real(dp), parameter :: lattice_tolerance = 1.0e-9_dp
@@ -38,7 +41,18 @@ module beadmob_block_table
     integer :: block_size = 0
     integer :: span(3) = 0
     integer, allocatable :: lattice(:, :)      ! (3, N) integer coordinates (lattice models)
-    real(dp), allocatable :: blocks(:, :, :)   ! (nb, nb, n_blocks)
+    !> Expanded lattice table (nb, nb, blocks of the displacement box), or the off-lattice store
+    !> (nb, nb, N n_local)
+    real(dp), allocatable :: blocks(:, :, :)
+    !> Compact lattice table: the block of canonical displacement c is
+    !> canonical_blocks(:, :, canonical_id(c(1), c(2), c(3))) (lattice_block, lattice_block_entries)
+    integer, allocatable :: canonical_id(:, :, :)
+    real(dp), allocatable :: canonical_blocks(:, :, :)
+    !> D_Q of the 48 lattice symmetries, dense (nb, nb, 48) and by rows without the zeros: row r
+    !> of D_s has transform_count(r, s) entries transform_value(:, r, s) in columns transform_column(:, r, s)
+    real(dp), allocatable :: transforms(:, :, :)
+    integer, allocatable :: transform_count(:, :), transform_column(:, :, :)
+    real(dp), allocatable :: transform_value(:, :, :)
     integer(i8) :: computed_blocks = 0         ! blocks evaluated by quadrature (all ranks)
     integer(i8) :: cached_blocks = 0           ! blocks read from the table cache
     !> The table cache file ('' or unallocated: none). Callers that reach make_block_table
@@ -85,8 +99,9 @@ contains
 
   !> Collective over comm. first, n_local: this rank's rows (off-lattice case). `cache_file`
   !> (default: table%cache_file as set by the caller, else none; '' = none): the table cache
-  !> of the lattice blocks (off-lattice stores do not use it). The table is rebuilt from scratch.
-  subroutine make_block_table(comm, basis, centres, first, n_local, table, err, cache_file)
+  !> of the lattice blocks (off-lattice stores do not use it). `expand` (default true): also the
+  !> blocks of the whole displacement box (else the compact form only). The table is rebuilt from scratch.
+  subroutine make_block_table(comm, basis, centres, first, n_local, table, err, cache_file, expand)
     integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
@@ -94,7 +109,9 @@ contains
     type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
     character(len=*), intent(in), optional :: cache_file
+    logical, intent(in), optional :: expand
     character(len=:), allocatable :: cache
+    logical :: expanded
     real(dp) :: corner(3)
     integer :: i
 
@@ -111,104 +128,139 @@ contains
     table%on_lattice = all(abs(centres - spread(corner, 2, size(centres, 2)) - table%lattice) <= lattice_tolerance)
     if (table%on_lattice) then
       table%span = maxval(table%lattice, dim=2)
-      call fill_lattice_table(comm, basis, table, err)
+      expanded = .true.
+      if (present(expand)) expanded = expand
+      call fill_lattice_table(comm, basis, expanded, table, err)
     else
       deallocate (table%lattice)
       call fill_pair_store(basis, centres, first, n_local, table, err)
     end if
   end subroutine make_block_table
 
-  !> Every displacement of the box. Quadrature only for the canonical displacements
-  !> (d_1 >= d_2 >= d_3 >= 0, shared over the ranks) not found in the table cache; the rest by the
-  !> lattice symmetries, A(Q c) = D_Q A(c) D_Q^T, on the half box, and A(-d) = A(d)^T for the other half.
-  subroutine fill_lattice_table(comm, basis, table, err)
+  !> The canonical blocks (d_1 >= d_2 >= d_3 >= 0, c_k <= the k-th largest span: exactly the
+  !> sorted |d| of the box's displacements) by quadrature shared over the ranks, those not found
+  !> in the table cache; the D_Q dense and by rows; with `expand`, also every block of the box by
+  !> the lattice symmetries on the half box and A(-d) = A(d)^T on the other half.
+  subroutine fill_lattice_table(comm, basis, expand, table, err)
     integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
+    logical, intent(in) :: expand
     type(block_table_t), intent(inout) :: table
     type(error_t), intent(inout) :: err
     integer :: width(3), n_blocks, centre_index, rank, n_ranks, ierr, nb, h, index, d(3), c(3), s, n_canonical, mine, &
-               n_missing, extent(3)
-    integer, allocatable :: counts(:), offsets(:), canonical_id(:, :, :), canonical_list(:, :), missing(:), &
-                            cached_list(:, :)
-    real(dp), allocatable :: canonical_blocks(:, :, :), computed(:, :, :), gathered(:, :, :), transforms(:, :, :), &
-                             cached(:, :, :)
+               n_missing, extent(3), i, j, k
+    integer, allocatable :: counts(:), offsets(:), canonical_list(:, :), missing(:), cached_list(:, :)
+    real(dp), allocatable :: gathered(:, :, :), cached(:, :, :)
     logical, allocatable :: known(:)
     logical :: caching
     type(error_t) :: cache_err, write_err
     real(dp) :: bytes
+    integer :: stat
 
     nb = basis%size
     width = 2 * table%span + 1
-    bytes = product(real(width, dp)) * nb * nb * 8   ! in real arithmetic: product(width) may overflow
-    if (bytes > max_store_bytes) then
-      call raise(err, 'the block table of this model needs ' // str(bytes / 1.0e9_dp) // ' GB per rank (box ' // &
-                 str(width(1)) // ' x ' // str(width(2)) // ' x ' // str(width(3)) // ' displacements, ' // &
-                 str(nb) // ' unknowns per bead); the limit is ' // str(max_store_bytes / 1.0e9_dp) // ' GB')
+    extent = sorted_descending(table%span)
+    if (expand) then
+      bytes = product(real(width, dp)) * nb * nb * 8   ! in real arithmetic: product(width) may overflow
+      if (bytes > max_store_bytes) then
+        call raise(err, 'the block table of this model needs ' // str(bytes / 1.0e9_dp) // ' GB per rank (box ' // &
+                   str(width(1)) // ' x ' // str(width(2)) // ' x ' // str(width(3)) // ' displacements, ' // &
+                   str(nb) // ' unknowns per bead); the limit is ' // str(max_store_bytes / 1.0e9_dp) // &
+                   ' GB: use the FFT operator')
+        return
+      end if
+    end if
+
+    ! The canonical displacements, numbered in the order c(3) slowest: canonical_id(c) = 0 for
+    ! c = 0 (the self block is the operator's business) and for unsorted c.
+    allocate (table%canonical_id(0:extent(1), 0:extent(2), 0:extent(3)), stat=stat)
+    if (stat == 0) allocate (canonical_list(3, canonical_count(extent)), stat=stat)
+    if (stat /= 0) then
+      call raise(err, 'could not allocate the index of the canonical lattice displacements (extent ' // &
+                 str(extent(1)) // ' x ' // str(extent(2)) // ' x ' // str(extent(3)) // ')')
       return
     end if
-    n_blocks = product(width)
-    centre_index = table_block_index(table, [0, 0, 0])
-
-    ! The canonical displacements the half box needs: c(1) >= c(2) >= c(3) >= 0 are the sorted
-    ! |d|, so c(k) <= the k-th largest span (an index linear, not cubic, in a chain's length).
-    extent = sorted_descending(table%span)
-    allocate (canonical_id(0:extent(1), 0:extent(2), 0:extent(3)), canonical_list(3, product(extent + 1)))
-    canonical_id = 0
+    table%canonical_id = 0
     n_canonical = 0
-    do index = centre_index + 1, n_blocks
-      call canonical_displacement(displacement_of(index), c, s)
-      if (canonical_id(c(1), c(2), c(3)) == 0) then
-        n_canonical = n_canonical + 1
-        canonical_id(c(1), c(2), c(3)) = n_canonical
-        canonical_list(:, n_canonical) = c
-      end if
+    do k = 0, extent(3)
+      do j = k, extent(2)
+        do i = j, extent(1)
+          if (i == 0) cycle
+          n_canonical = n_canonical + 1
+          table%canonical_id(i, j, k) = n_canonical
+          canonical_list(:, n_canonical) = [i, j, k]
+        end do
+      end do
     end do
 
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
-    allocate (canonical_blocks(nb, nb, max(n_canonical, 1)), known(n_canonical))
+    allocate (table%canonical_blocks(nb, nb, max(n_canonical, 1)), known(n_canonical), stat=stat)
+    if (stat /= 0) then
+      call raise(err, 'could not allocate the ' // str(n_canonical) // ' canonical lattice blocks (' // &
+                 str(8.0_dp * nb * nb * n_canonical / 1.0e9_dp) // ' GB per rank)')
+      return
+    end if
     known = .false.
     ! Only rank 0 touches the file: its view decides, for every rank.
     caching = len(table%cache_file) > 0
     call MPI_Bcast(caching, 1, MPI_LOGICAL, 0, comm, ierr)
     if (caching) call take_cached_blocks()
 
-    ! Quadrature for the rest, shared over the ranks.
+    ! Quadrature for the rest, shared over the ranks: each rank computes its share in place in
+    ! the gathered array (no second copy of the blocks), then one Allgatherv.
     missing = pack([(h, h = 1, n_canonical)], .not. known)
     n_missing = size(missing)
     call even_shares(n_missing, n_ranks, counts, offsets)
     mine = counts(rank)
-    allocate (computed(nb, nb, max(mine, 1)), gathered(nb, nb, max(n_missing, 1)))
-    do h = 1, mine
-      call pair_block(basis, real(canonical_list(:, missing(offsets(rank) + h)), dp), computed(:, :, h))
+    if (n_missing == n_canonical) then
+      call move_alloc(table%canonical_blocks, gathered)   ! nothing cached: fill the table itself
+    else
+      allocate (gathered(nb, nb, max(n_missing, 1)), stat=stat)
+      if (stat /= 0) then
+        call raise(err, 'could not allocate the ' // str(n_missing) // ' lattice blocks to compute')
+        return
+      end if
+    end if
+    do h = offsets(rank) + 1, offsets(rank) + mine
+      call pair_block(basis, real(canonical_list(:, missing(h)), dp), gathered(:, :, h))
     end do
     counts = counts * nb * nb
     offsets = offsets * nb * nb
-    call MPI_Allgatherv(computed, mine * nb * nb, MPI_DOUBLE_PRECISION, gathered, counts, offsets, &
+    call MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, gathered, counts, offsets, &
                         MPI_DOUBLE_PRECISION, comm, ierr)
     if (ierr /= MPI_SUCCESS) call raise(err, 'MPI_Allgatherv of the block table failed')
-    deallocate (computed)
-    canonical_blocks(:, :, missing) = gathered(:, :, 1:n_missing)
+    if (n_missing == n_canonical) then
+      call move_alloc(gathered, table%canonical_blocks)
+    else
+      table%canonical_blocks(:, :, missing) = gathered(:, :, 1:n_missing)
+    end if
     table%computed_blocks = n_missing
     table%cached_blocks = n_canonical - n_missing
     if (caching .and. rank == 0 .and. n_missing > 0 .and. .not. err%failed) then
       ! The union of the cached entry (also blocks this body does not need) and the new blocks.
       call write_cached_blocks(table%cache_file, block_cache_key(basis), &
                                reshape([cached_list, canonical_list(:, missing)], [3, size(cached_list, 2) + n_missing]), &
-                               reshape([cached, gathered(:, :, 1:n_missing)], [nb, nb, size(cached, 3) + n_missing]), &
-                               write_err)
+                               reshape([cached, table%canonical_blocks(:, :, missing)], &
+                                       [nb, nb, size(cached, 3) + n_missing]), write_err)
       if (write_err%failed) call warn_cache(table%cache_file, 'not updated: ' // write_err%message)
     end if
-    deallocate (gathered)
+    if (allocated(gathered)) deallocate (gathered)
 
-    allocate (transforms(nb, nb, n_symmetries), table%blocks(nb, nb, n_blocks))
-    call basis_transforms(basis, transforms)
+    allocate (table%transforms(nb, nb, n_symmetries))
+    call basis_transforms(basis, table%transforms)
+    call sparse_rows(table)
+    if (.not. expand) return
+
+    n_blocks = product(width)
+    centre_index = table_block_index(table, [0, 0, 0])
+    allocate (table%blocks(nb, nb, n_blocks))
     do index = centre_index + 1, n_blocks
       d = displacement_of(index)
       call canonical_displacement(d, c, s)
-      table%blocks(:, :, index) = matmul(transforms(:, :, s), &
-                                         matmul(canonical_blocks(:, :, canonical_id(c(1), c(2), c(3))), &
-                                                transpose(transforms(:, :, s))))
+      table%blocks(:, :, index) = matmul(table%transforms(:, :, s), &
+                                         matmul(table%canonical_blocks(:, :, table%canonical_id(c(1), c(2), c(3))), &
+                                                transpose(table%transforms(:, :, s))))
       ! Displacement -d has index 2 centre_index - index.
       table%blocks(:, :, 2 * centre_index - index) = transpose(table%blocks(:, :, index))
     end do
@@ -221,20 +273,20 @@ contains
     !> be used gives a warning and no blocks. cached_list, cached: the entry, on rank 0.
     subroutine take_cached_blocks()
       integer, allocatable :: taken(:)
-      integer :: j, k, n_taken, flags(n_canonical), e(3)
+      integer :: jj, kk, n_taken, flags(n_canonical), e(3)
       real(dp), allocatable :: buffer(:, :, :)
       if (rank == 0) then
         call read_cached_blocks(table%cache_file, block_cache_key(basis), nb, cached_list, cached, cache_err)
         if (cache_err%failed) call warn_cache(table%cache_file, cache_err%message // &
                                               '; computing every block and rewriting the cache')
-        do j = 1, size(cached_list, 2)
-          e = cached_list(:, j)   ! canonical (checked on reading): 0 <= e <= e(1)
+        do jj = 1, size(cached_list, 2)
+          e = cached_list(:, jj)   ! canonical (checked on reading): 0 <= e <= e(1)
           if (any(e > extent)) cycle
-          k = canonical_id(e(1), e(2), e(3))
-          if (k == 0) cycle
-          if (known(k)) cycle
-          known(k) = .true.
-          canonical_blocks(:, :, k) = cached(:, :, j)
+          kk = table%canonical_id(e(1), e(2), e(3))
+          if (kk == 0) cycle
+          if (known(kk)) cycle
+          known(kk) = .true.
+          table%canonical_blocks(:, :, kk) = cached(:, :, jj)
         end do
       else
         allocate (cached_list(3, 0), cached(nb, nb, 0))
@@ -242,20 +294,14 @@ contains
       flags = merge(1, 0, known)
       call MPI_Bcast(flags, n_canonical, MPI_INTEGER, 0, comm, ierr)
       known = flags == 1
-      taken = pack([(j, j = 1, n_canonical)], known)
+      taken = pack([(jj, jj = 1, n_canonical)], known)
       n_taken = size(taken)
       if (n_taken == 0) return
       allocate (buffer(nb, nb, n_taken))
-      if (rank == 0) buffer = canonical_blocks(:, :, taken)
+      if (rank == 0) buffer = table%canonical_blocks(:, :, taken)
       call MPI_Bcast(buffer, nb * nb * n_taken, MPI_DOUBLE_PRECISION, 0, comm, ierr)
-      canonical_blocks(:, :, taken) = buffer
+      table%canonical_blocks(:, :, taken) = buffer
     end subroutine take_cached_blocks
-
-    pure function sorted_descending(v) result(w)
-      integer, intent(in) :: v(3)
-      integer :: w(3)
-      w = [maxval(v), sum(v) - maxval(v) - minval(v), minval(v)]
-    end function sorted_descending
 
     pure function displacement_of(linear) result(dd)
       integer, intent(in) :: linear
@@ -267,6 +313,94 @@ contains
       dd(3) = rest / width(2) - table%span(3)
     end function displacement_of
   end subroutine fill_lattice_table
+
+  !> Number of canonical displacements c(1) >= c(2) >= c(3) >= 0, c /= 0, c(k) <= extent(k)
+  !> (extent sorted descending).
+  pure integer function canonical_count(extent)
+    integer, intent(in) :: extent(3)
+    integer :: j, k
+    canonical_count = 0
+    do k = 0, extent(3)
+      do j = k, extent(2)
+        canonical_count = canonical_count + (extent(1) - j + 1)
+      end do
+    end do
+    canonical_count = canonical_count - 1   ! c = 0
+  end function canonical_count
+
+  pure function sorted_descending(v) result(w)
+    integer, intent(in) :: v(3)
+    integer :: w(3)
+    w = [maxval(v), sum(v) - maxval(v) - minval(v), minval(v)]
+  end function sorted_descending
+
+  !> The rows of every D_Q without their zeros. D_Q is block-diagonal in (n, sigma) and, in the
+  !> real harmonic basis, a signed permutation for the 16 symmetries that keep the z axis: a block
+  !> entry then needs a few products instead of nb^2. Entries below 1e-13 are quadrature
+  !> rounding of exact zeros (D_Q is orthogonal: entries are at most 1).
+  subroutine sparse_rows(table)
+    type(block_table_t), intent(inout) :: table
+    real(dp), parameter :: zero_entry = 1.0e-13_dp
+    integer :: nb, s, r, a, widest
+    nb = table%block_size
+    widest = maxval(count(abs(table%transforms) > zero_entry, dim=2))
+    allocate (table%transform_count(nb, n_symmetries), table%transform_column(widest, nb, n_symmetries), &
+              table%transform_value(widest, nb, n_symmetries))
+    table%transform_count = 0
+    table%transform_column = 1
+    table%transform_value = 0.0_dp
+    do s = 1, n_symmetries
+      do r = 1, nb
+        do a = 1, nb
+          if (abs(table%transforms(r, a, s)) <= zero_entry) cycle
+          table%transform_count(r, s) = table%transform_count(r, s) + 1
+          table%transform_column(table%transform_count(r, s), r, s) = a
+          table%transform_value(table%transform_count(r, s), r, s) = table%transforms(r, a, s)
+        end do
+      end do
+    end do
+  end subroutine sparse_rows
+
+  !> The block of lattice displacement d from the compact table (0 for d = 0).
+  function lattice_block(table, d) result(block)
+    type(block_table_t), intent(in) :: table
+    integer, intent(in) :: d(3)
+    real(dp) :: block(table%block_size, table%block_size)
+    integer :: c(3), s
+    if (all(d == 0)) then
+      block = 0.0_dp
+      return
+    end if
+    call canonical_displacement(d, c, s)
+    block = matmul(table%transforms(:, :, s), matmul(table%canonical_blocks(:, :, table%canonical_id(c(1), c(2), c(3))), &
+                                                     transpose(table%transforms(:, :, s))))
+  end function lattice_block
+
+  !> values(e) = A(d)(rows(e), columns(e)) from the compact table (0 for d = 0):
+  !> (D A_c D^T)(r, t) = sum_a D(r, a) sum_b A_c(a, b) D(t, b) over the nonzeros of D's rows only.
+  pure subroutine lattice_block_entries(table, d, rows, columns, values)
+    type(block_table_t), intent(in) :: table
+    integer, intent(in) :: d(3), rows(:), columns(:)
+    real(dp), intent(out) :: values(:)
+    integer :: c(3), s, e, a, b, k, r, t
+    real(dp) :: inner
+    values = 0.0_dp
+    if (all(d == 0)) return
+    call canonical_displacement(d, c, s)
+    k = table%canonical_id(c(1), c(2), c(3))
+    do e = 1, size(rows)
+      r = rows(e)
+      t = columns(e)
+      do a = 1, table%transform_count(r, s)
+        inner = 0.0_dp
+        do b = 1, table%transform_count(t, s)
+          inner = inner + table%canonical_blocks(table%transform_column(a, r, s), table%transform_column(b, t, s), k) &
+                  * table%transform_value(b, t, s)
+        end do
+        values(e) = values(e) + table%transform_value(a, r, s) * inner
+      end do
+    end do
+  end subroutine lattice_block_entries
 
   subroutine fill_pair_store(basis, centres, first, n_local, table, err)
     type(multipole_basis_t), intent(in) :: basis

@@ -40,7 +40,7 @@ module beadmob_fft_operator
   use beadmob_strings, only: str
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
-  use beadmob_block_table, only: block_table_t, make_block_table, table_block_index, lattice_tolerance
+  use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
   implicit none
   private
   public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
@@ -120,8 +120,8 @@ module beadmob_fft_operator
     integer :: block_size = 0
     integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
     real(dp), allocatable :: self_block(:, :)
-    !> The lattice (on_lattice, span, lattice, computed_blocks); its blocks are freed once the
-    !> kernel is transformed.
+    !> The lattice (on_lattice, span, lattice, computed_blocks) and its compact block table (the
+    !> canonical blocks), freed once the kernel is transformed.
     type(block_table_t) :: table
     integer :: axes(3) = [1, 2, 3]          ! lattice axis of the fast, middle and slow FFT dimension
     integer :: box(3) = 1                   ! padded size of the fast, middle and slow FFT dimension
@@ -211,12 +211,14 @@ contains
 
     ! Checked before the block table, which would otherwise store every pair of an off-lattice set.
     call check_on_lattice(centres, err)
-    if (.not. err%failed) call make_block_table(comm, basis, centres, first_bead, n_local, op%table, err)
+    ! Compact table: each rank forms the blocks of its own FFT slab from the canonical ones
+    ! (transform_kernel), so nothing of the size of the displacement box is held on any rank.
+    if (.not. err%failed) call make_block_table(comm, basis, centres, first_bead, n_local, op%table, err, expand=.false.)
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
     if (.not. err%failed) call plan_transforms(comm, op, err)
     if (.not. err%failed) call transform_kernel(op, err)
-    if (allocated(op%table%blocks)) deallocate (op%table%blocks)   ! the kernel holds them now
+    call free_canonical_blocks(op%table)   ! the kernel holds them now
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) then
@@ -325,30 +327,37 @@ contains
 
   !> The kernel's storage rests on A(-d) = A(d)^T and A(-d) = P A(d) P: refuse a table that
   !> breaks them beyond rounding (e.g. a basis function without definite parity). A violation
-  !> would be structural, so a sample of about 4096 displacements suffices: the whole table
-  !> (1.4 GB per rank for the cone at L = 3) would cost a second of memory traffic.
+  !> would be structural, so a sample of displacements suffices: about 4096 of the half box,
+  !> each block formed from the compact table (lattice_block) for d and for -d.
   subroutine check_symmetries(op, err)
     type(fft_operator_t), intent(in) :: op
     type(error_t), intent(inout) :: err
-    integer :: n_blocks, centre, index, mirror, a, b, stride
+    integer :: width(3), d(3), a, b, rest
+    integer(i8) :: n_half, index, stride
     real(dp) :: signs(op%block_size), largest, worst_transpose, worst_parity
+    real(dp), dimension(op%block_size, op%block_size) :: forward, backward
     real(dp), parameter :: tolerance = 1.0e-10_dp
-    n_blocks = size(op%table%blocks, 3)
-    centre = table_block_index(op%table, [0, 0, 0])   ! mid-box: index of -d is 2 centre - index
-    stride = max(1, (n_blocks - centre) / 4096)
+    width = 2 * op%table%span + 1
+    n_half = (product(int(width, i8)) - 1) / 2   ! displacements after d = 0 in box order
+    stride = max(1_i8, n_half / 4096)
     do a = 1, op%block_size
       signs(a) = merge(1.0_dp, -1.0_dp, op%slot(a) <= op%n_even)
     end do
     largest = 0.0_dp
     worst_transpose = 0.0_dp
     worst_parity = 0.0_dp
-    do index = centre + 1, n_blocks, stride
-      mirror = 2 * centre - index              ! displacement -d
-      largest = max(largest, maxval(abs(op%table%blocks(:, :, index))))
+    do index = n_half + 1, 2 * n_half, stride   ! 0-based box index of d; n_half is d = 0
+      rest = int(index)
+      d(1) = mod(rest, width(1)) - op%table%span(1)
+      rest = rest / width(1)
+      d(2) = mod(rest, width(2)) - op%table%span(2)
+      d(3) = rest / width(2) - op%table%span(3)
+      forward = lattice_block(op%table, d)
+      backward = lattice_block(op%table, -d)
+      largest = max(largest, maxval(abs(forward)))
       do b = 1, op%block_size
-        worst_transpose = max(worst_transpose, maxval(abs(op%table%blocks(:, b, mirror) - op%table%blocks(b, :, index))))
-        worst_parity = max(worst_parity, maxval(abs(op%table%blocks(:, b, mirror) &
-                                                    - signs(b) * signs * op%table%blocks(:, b, index))))
+        worst_transpose = max(worst_transpose, maxval(abs(backward(:, b) - forward(b, :))))
+        worst_parity = max(worst_parity, maxval(abs(backward(:, b) - signs(b) * signs * forward(:, b))))
       end do
     end do
     if (max(worst_transpose, worst_parity) > tolerance * largest) &
@@ -356,6 +365,14 @@ contains
                  'the block table breaks them by ' // str(max(worst_transpose, worst_parity) / max(largest, tiny(1.0_dp))) // &
                  ' relative')
   end subroutine check_symmetries
+
+  !> The compact table is needed only until the kernel is transformed.
+  subroutine free_canonical_blocks(table)
+    type(block_table_t), intent(inout) :: table
+    if (allocated(table%canonical_blocks)) deallocate (table%canonical_blocks)
+    if (allocated(table%canonical_id)) deallocate (table%canonical_id)
+    if (allocated(table%blocks)) deallocate (table%blocks)
+  end subroutine free_canonical_blocks
 
   !> Padded box, axis order, FFTW slabs, the aligned buffer and the two in-place plans.
   subroutine plan_transforms(comm, op, err)
@@ -426,11 +443,13 @@ contains
   end subroutine plan_transforms
 
   !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through the
-  !> operator's own plan (no extra plan; the transient memory is the one buffer).
+  !> operator's own plan (no extra plan; the transient memory is the one buffer). Each rank forms
+  !> the entries of its own slab's sites from the compact block table (lattice_block_entries),
+  !> so the real-space kernel is never held whole on any rank.
   subroutine transform_kernel(op, err)
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
-    integer :: nb, n_packed, batch, c, e, i, j, k, s, t, d(3), index, stat
+    integer :: nb, n_packed, batch, c, e, i, j, k, s, t, d(3), first, last, stat
     integer, allocatable :: row(:), column(:), unknown(:)
     logical, allocatable :: odd(:)
     integer(i8) :: site, f
@@ -469,12 +488,11 @@ contains
           do i = 0, op%box(1) - 1
             call displacement_at([i, j, int(op%slab_start) + k], d, inside)
             if (.not. inside) cycle
-            index = table_block_index(op%table, d)
             site = padded_site(op, i, j, k)
-            do c = 1, min(nb, n_packed - batch * nb)
-              e = batch * nb + c
-              op%real_data(site * nb + c) = op%table%blocks(row(e), column(e), index)
-            end do
+            first = batch * nb + 1
+            last = min(batch * nb + nb, n_packed)
+            call lattice_block_entries(op%table, d, row(first:last), column(first:last), &
+                                       op%real_data(site * nb + 1:site * nb + last - first + 1))
           end do
         end do
       end do
