@@ -7,7 +7,10 @@ module beadmob_run
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
-  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_shell_layers, is_set
+  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_shell_layers, is_set, &
+                                  effective_input_text
+  use beadmob_progress, only: progress_line
+  use beadmob_checkpoint_file, only: checkpoint_suffix, remove_checkpoint
   use beadmob_bead_model, only: bead_model_t
   use beadmob_shape_catalog, only: build_bead_model
   use beadmob_geometry_checks, only: check_bead_model
@@ -84,6 +87,12 @@ contains
       settings%shell_layers = config%hydrodynamics%shell_layers
       settings%cache_file = config%hydrodynamics%cache_file
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
+      ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines.
+      settings%progress = settings%progress .and. config%progress
+      if (config%checkpoint) then
+        settings%checkpoint_file = trim(config%output) // checkpoint_suffix
+        settings%checkpoint_input = effective_input_text(config, numbers_only=.true.)
+      end if
       call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
       if (err%failed) return   ! agreed on inside
       hydro%accuracy = choice
@@ -113,7 +122,10 @@ contains
       else
         mobility = undefined_mobility(hydro%friction)
       end if
+      call progress_line(settings%progress .and. ctx%rank == 0, 'phase output')
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
+      ! The result is safe: the saved solves are no longer needed (a failed write keeps them).
+      if (.not. err%failed .and. config%checkpoint .and. ctx%rank == 0) call remove_checkpoint(trim(settings%checkpoint_file))
     else
       if (accuracy_given) call raise(err, '-accuracy needs the friction job (a &hydrodynamics group, ' // &
                                      'no -geometry_only)')
@@ -190,6 +202,9 @@ contains
     write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
       ', preconditioner ' // trim(hydro%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
+    if (any(hydro%solves%resumed == 1)) write (*, '(a)') '  resumed ' // str(count(hydro%solves%resumed == 1)) // &
+      ' motions from the checkpoint ' // trim(config%output) // checkpoint_suffix // ' (solved ' // &
+      str(count(hydro%solves%source == 0 .and. hydro%solves%resumed == 0)) // ')'
     if (any(hydro%solves%source /= 0)) write (*, '(a, i0, a, 6i3, a)') '  symmetries of the bead set: ', &
       hydro%symmetry_group_order, '; motions derived, not solved (from):', hydro%solves%source, &
       ' (0 = solved, -1 = not computed)'

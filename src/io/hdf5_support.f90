@@ -14,6 +14,11 @@ module beadmob_hdf5_support
   private
   public :: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group
   public :: write_attribute, write_text_dataset, write_replicated_dataset, write_distributed_columns
+  public :: read_text_attribute, read_int_attribute, read_real_attribute, quiet_hdf5
+  public :: h5_open_parallel_readonly, read_distributed_columns
+
+  !> Longest text attribute read back (keys are a few thousand characters at most).
+  integer, parameter :: max_text_length = 65536
 
   interface write_attribute
     module procedure write_attribute_text, write_attribute_int, write_attribute_int8, write_attribute_real, &
@@ -50,6 +55,27 @@ contains
     call check(status, "create '" // path // "'", err)
     call h5pclose_f(access, status)
   end subroutine h5_create_parallel
+
+  !> Open an existing `path` read-only for collective reading on the run's communicator.
+  subroutine h5_open_parallel_readonly(ctx, path, file_id, err)
+    type(run_context_t), intent(in) :: ctx
+    character(len=*), intent(in) :: path
+    integer(hid_t), intent(out) :: file_id
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: access
+    integer :: status
+    call h5open_f(status)
+    call check(status, 'initialise', err)
+    call h5pcreate_f(H5P_FILE_ACCESS_F, access, status)
+    call h5pset_fapl_mpio_f(access, ctx%comm, MPI_INFO_NULL, status)
+    call check(status, 'set the MPI-IO file driver', err)
+    call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, status, access_prp=access)
+    if (status < 0) then
+      file_id = -1
+      call raise(err, 'not readable as an HDF5 file')
+    end if
+    call h5pclose_f(access, status)
+  end subroutine h5_open_parallel_readonly
 
   subroutine h5_close_file(file_id, err)
     integer(hid_t), intent(in) :: file_id
@@ -282,4 +308,132 @@ contains
     call h5dclose_f(dataset, status)
     call h5sclose_f(file_space, status)
   end subroutine write_distributed_columns
+
+  !> The counterpart of write_distributed_columns: this rank reads columns
+  !> first..first+size(block,2)-1 of the (size(block,1), n_total) dataset `name`, in one collective
+  !> MPI-IO transfer. A dataset of another shape raises `err` (nothing read).
+  subroutine read_distributed_columns(location, name, block, first, n_total, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(inout) :: block(:, :)
+    integer(i8), intent(in) :: first, n_total
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: file_space, memory_space, dataset, transfer
+    integer(hsize_t) :: file_dims(2), max_dims(2), block_dims(2), offset(2)
+    integer :: status, rank
+    call h5dopen_f(location, name, dataset, status)
+    if (status < 0) then
+      call raise(err, 'cannot open dataset ' // name)
+      return
+    end if
+    call h5dget_space_f(dataset, file_space, status)
+    call h5sget_simple_extent_ndims_f(file_space, rank, status)
+    file_dims = 0
+    if (rank == 2) call h5sget_simple_extent_dims_f(file_space, file_dims, max_dims, status)
+    if (rank /= 2 .or. file_dims(1) /= int(size(block, 1), hsize_t) .or. file_dims(2) /= int(n_total, hsize_t)) then
+      call raise(err, 'dataset ' // name // ' has an unexpected shape')
+      call h5sclose_f(file_space, status)
+      call h5dclose_f(dataset, status)
+      return
+    end if
+    block_dims = [int(size(block, 1), hsize_t), int(size(block, 2), hsize_t)]
+    offset = [0_hsize_t, int(first - 1, hsize_t)]
+    call h5screate_simple_f(2, block_dims, memory_space, status)
+    if (block_dims(2) > 0) then
+      call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, offset, block_dims, status)
+    else
+      call h5sselect_none_f(file_space, status)
+      call h5sselect_none_f(memory_space, status)
+    end if
+    call h5pcreate_f(H5P_DATASET_XFER_F, transfer, status)
+    call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, status)
+    call h5dread_f(dataset, H5T_NATIVE_DOUBLE, block, block_dims, status, &
+                   mem_space_id=memory_space, file_space_id=file_space, xfer_prp=transfer)
+    call check(status, 'read dataset ' // name // ' (damaged file?)', err)
+    call h5pclose_f(transfer, status)
+    call h5sclose_f(memory_space, status)
+    call h5sclose_f(file_space, status)
+    call h5dclose_f(dataset, status)
+  end subroutine read_distributed_columns
+
+  !> HDF5 prints its error stack on every failed call by default; a damaged cache or checkpoint
+  !> is an expected case, reported by one warning line instead. `quiet` = .false. restores the printing.
+  subroutine quiet_hdf5(quiet)
+    logical, intent(in) :: quiet
+    integer :: status
+    call h5open_f(status)
+    call h5eset_auto_f(merge(0, 1, quiet), status)
+  end subroutine quiet_hdf5
+
+  subroutine read_text_attribute(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    character(len=:), allocatable, intent(out) :: value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: attribute, file_type, memory_type
+    integer(size_t) :: length
+    integer :: status, class, nul
+    character(len=:), allocatable :: buffer
+    value = ''
+    call h5aopen_f(location, name, attribute, status)
+    if (status < 0) then
+      call raise(err, 'no attribute ' // name)
+      return
+    end if
+    call h5aget_type_f(attribute, file_type, status)
+    call h5tget_class_f(file_type, class, status)
+    call h5tget_size_f(file_type, length, status)
+    call h5tclose_f(file_type, status)
+    if (class /= H5T_STRING_F .or. length < 1 .or. length > max_text_length) then
+      call raise(err, 'attribute ' // name // ' is not a text')
+      call h5aclose_f(attribute, status)
+      return
+    end if
+    call h5tcopy_f(H5T_FORTRAN_S1, memory_type, status)
+    call h5tset_size_f(memory_type, length, status)
+    allocate (character(len=length) :: buffer)
+    call h5aread_f(attribute, memory_type, buffer, [1_hsize_t], status)
+    call check(status, 'read attribute ' // name, err)
+    call h5tclose_f(memory_type, status)
+    call h5aclose_f(attribute, status)
+    nul = index(buffer, achar(0))
+    if (nul > 0) buffer = buffer(1:nul - 1)
+    value = trim(buffer)
+  end subroutine read_text_attribute
+
+  subroutine read_int_attribute(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    integer, intent(out) :: value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: attribute
+    integer :: status
+    value = 0
+    call h5aopen_f(location, name, attribute, status)
+    if (status < 0) then
+      call raise(err, 'no attribute ' // name)
+      return
+    end if
+    call h5aread_f(attribute, H5T_NATIVE_INTEGER, value, [1_hsize_t], status)
+    call check(status, 'read attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+  end subroutine read_int_attribute
+
+  subroutine read_real_attribute(location, name, value, err)
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(out) :: value
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: attribute
+    integer :: status
+    value = 0.0_dp
+    call h5aopen_f(location, name, attribute, status)
+    if (status < 0) then
+      call raise(err, 'no attribute ' // name)
+      return
+    end if
+    call h5aread_f(attribute, H5T_NATIVE_DOUBLE, value, [1_hsize_t], status)
+    call check(status, 'read attribute ' // name, err)
+    call h5aclose_f(attribute, status)
+  end subroutine read_real_attribute
 end module beadmob_hdf5_support

@@ -95,6 +95,10 @@ module beadmob_input_config
     character(len=1024) :: output = default_output_path
     !> Beads overlap when their centres are closer than 1 - overlap_tolerance (relative to d).
     real(dp) :: overlap_tolerance = 1.0e-6_dp
+    !> Rank 0 prints a progress line per phase and per Krylov solve (-quiet silences it too).
+    logical :: progress = .true.
+    !> Save each solved motion to '<output>.checkpoint.h5' and resume from it (issue 13, item 4).
+    logical :: checkpoint = .true.
     type(shape_config_t) :: shape
     type(hydrodynamics_config_t) :: hydrodynamics
   end type run_config_t
@@ -156,12 +160,20 @@ contains
     type(error_t), intent(inout) :: err
     character(len=1024) :: output
     real(dp) :: overlap_tolerance
+    logical :: progress, checkpoint
     integer :: status
     character(len=512) :: message
-    namelist /run/ output, overlap_tolerance
+    namelist /run/ output, overlap_tolerance, progress, checkpoint
 
     output = config%output
     overlap_tolerance = config%overlap_tolerance
+    progress = config%progress
+    checkpoint = config%checkpoint
+    ! gfortran reads 'progress = 3' as an obscure "bad repeat count" and a quoted text as no
+    ! change at all: check these switches' values first.
+    call check_logical_value(lines, source, 'run', 'progress', err)
+    call check_logical_value(lines, source, 'run', 'checkpoint', err)
+    if (err%failed) return
     read (lines, nml=run, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'run', message))
@@ -169,6 +181,8 @@ contains
     end if
     config%output = output
     config%overlap_tolerance = overlap_tolerance
+    config%progress = progress
+    config%checkpoint = checkpoint
   end subroutine read_run_group
 
   subroutine read_hydrodynamics_group(lines, source, hydro, err)
@@ -244,6 +258,106 @@ contains
     hydro%motions = motions
     if (.not. err%failed) call parse_motions(motions, source, hydro%motion_requested, err)
   end subroutine read_hydrodynamics_group
+
+  !> Every `name = value` of `group` must give a Fortran logical (.true., .false., t, f, ...):
+  !> an error naming the line otherwise. Quoted texts and comments are skipped when looking.
+  subroutine check_logical_value(lines, source, group, name, err)
+    character(len=*), intent(in) :: lines(:), source, group, name
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: text, value
+    logical :: inside
+    integer :: i, at, finish
+    inside = .false.
+    do i = 1, size(lines)
+      text = lower(unquoted(lines(i)))
+      if (len(group_on_line(lines(i))) > 0) inside = group_on_line(lines(i)) == group
+      if (.not. inside) cycle
+      at = word_at(text, name)
+      do while (at > 0)
+        value = adjustl(text(at + len(name):))
+        if (len_trim(value) > 0) then
+          if (value(1:1) == '=') then
+            value = trim(adjustl(value(2:)))
+            finish = scan(value // ' ', ' ,/') - 1
+            value = value(1:finish)
+            if (.not. logical_literal(value)) then
+              ! The raw text of the value (the quotes are blanked in `text`).
+              value = trim(adjustl(lines(i)(index(lines(i)(at:), '=') + at:)))
+              finish = scan(value // ' ', ',/') - 1
+              call raise(err, source // ' line ' // str(i) // ': &' // group // ' ' // name // &
+                         " must be .true. or .false., got '" // trim(value(1:finish)) // "'")
+              return
+            end if
+          end if
+        end if
+        finish = word_at(text(at + len(name):), name)
+        at = merge(at + len(name) + finish - 1, 0, finish > 0)
+      end do
+      if (index(text, '/') > 0) inside = .false.
+    end do
+  contains
+    pure logical function logical_literal(word)
+      character(len=*), intent(in) :: word
+      character(len=:), allocatable :: w
+      w = word
+      if (len(w) > 0) then
+        if (w(1:1) == '.') w = w(2:)
+      end if
+      logical_literal = len(w) > 0
+      if (logical_literal) logical_literal = w(1:1) == 't' .or. w(1:1) == 'f'
+      if (logical_literal) logical_literal = verify(w, 'abcdefghijklmnopqrstuvwxyz.') == 0
+    end function logical_literal
+
+    !> Position of `word` in `line` as a whole word (not part of a longer name), 0 if none.
+    pure integer function word_at(line, word)
+      character(len=*), intent(in) :: line, word
+      character(len=*), parameter :: name_chars = 'abcdefghijklmnopqrstuvwxyz0123456789_%'
+      integer :: start, k
+      word_at = 0
+      start = 1
+      do
+        k = index(line(start:), word)
+        if (k == 0) return
+        k = k + start - 1
+        if (k > 1) then
+          if (index(name_chars, line(k - 1:k - 1)) > 0) then
+            start = k + 1
+            cycle
+          end if
+        end if
+        if (k + len(word) <= len(line)) then
+          if (index(name_chars, line(k + len(word):k + len(word))) > 0) then
+            start = k + 1
+            cycle
+          end if
+        end if
+        word_at = k
+        return
+      end do
+    end function word_at
+
+    !> The line with quoted texts blanked and the comment cut off.
+    pure function unquoted(line) result(plain)
+      character(len=*), intent(in) :: line
+      character(len=len(line)) :: plain
+      character :: quote
+      integer :: k
+      plain = line
+      quote = ' '
+      do k = 1, len(line)
+        if (quote /= ' ') then
+          if (line(k:k) == quote) quote = ' '
+          plain(k:k) = ' '
+        else if (line(k:k) == '"' .or. line(k:k) == "'") then
+          quote = line(k:k)
+          plain(k:k) = ' '
+        else if (line(k:k) == '!') then
+          plain(k:) = ' '
+          exit
+        end if
+      end do
+    end function unquoted
+  end subroutine check_logical_value
 
   !> &hydrodynamics motions: 'all', or blank-separated motion names (U_x ... W_z, translations,
   !> rotations); at least one.
@@ -326,13 +440,22 @@ contains
   end subroutine read_shape_group
 
   !> The configuration actually used, written back as namelists (defaults made visible).
-  function effective_input_text(config) result(text)
+  !> numbers_only: without the switches that change no number of the result (progress,
+  !> checkpoint, cache_file): the input part of a checkpoint's key (checkpoint_file.f90).
+  function effective_input_text(config, numbers_only) result(text)
     type(run_config_t), intent(in) :: config
+    logical, intent(in), optional :: numbers_only
     character(len=:), allocatable :: text
     character(len=256) :: line
+    logical :: all_switches
+    all_switches = .true.
+    if (present(numbers_only)) all_switches = .not. numbers_only
     text = '&run' // new_line('a') // "  output = '" // trim(config%output) // "'" // new_line('a')
     write (line, '(a, es23.16)') '  overlap_tolerance = ', config%overlap_tolerance
-    text = text // trim(line) // new_line('a') // '/' // new_line('a')
+    text = text // trim(line) // new_line('a')
+    if (all_switches) text = text // '  progress = ' // merge('.true. ', '.false.', config%progress) // new_line('a') // &
+                             '  checkpoint = ' // merge('.true. ', '.false.', config%checkpoint) // new_line('a')
+    text = text // '/' // new_line('a')
     text = text // '&shape' // new_line('a') // "  name = '" // trim(config%shape%name) // "'" // new_line('a')
     associate (c => config%shape)
       if (len_trim(c%file) > 0) text = text // "  file = '" // trim(c%file) // "'" // new_line('a') // &
@@ -373,7 +496,8 @@ contains
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
       '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
       "  motions = '" // trim(config%hydrodynamics%motions) // "'" // new_line('a') // &
-      accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file) // '/' // new_line('a')
+      accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file, all_switches) // '/' // &
+      new_line('a')
   contains
     !> A comment: the settings above are the ones the target chose, and the text stays a valid
     !> input that reruns them (accuracy together with them would be refused).
@@ -384,11 +508,12 @@ contains
       if (target > 0.0_dp) line_text = '  ! chosen for accuracy = ' // str(target) // new_line('a')
     end function accuracy_line
 
-    pure function cache_line(path) result(line_text)
+    pure function cache_line(path, wanted) result(line_text)
       character(len=*), intent(in) :: path
+      logical, intent(in) :: wanted
       character(len=:), allocatable :: line_text
       line_text = ''
-      if (len_trim(path) > 0) line_text = "  cache_file = '" // trim(path) // "'" // new_line('a')
+      if (wanted .and. len_trim(path) > 0) line_text = "  cache_file = '" // trim(path) // "'" // new_line('a')
     end function cache_line
 
     subroutine add_real(name, value)

@@ -190,6 +190,8 @@ contains
     call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
     ! 0: solved; m: derived from motion m by a symmetry of the bead set (motion_symmetry.F90).
     call write_attribute(group, 'solve_source', hydro%solves%source, err)
+    ! 1: the solution was loaded from the checkpoint of an interrupted run (checkpoint_file.f90).
+    call write_attribute(group, 'resumed_motions', hydro%solves%resumed, err)
     call write_attribute(group, 'symmetry_group_order', hydro%symmetry_group_order, err)
     call write_attribute(group, 'use_symmetry', merge(1, 0, config%hydrodynamics%use_symmetry), err)
     call write_attribute(group, 'solve_converged_reason', hydro%solves%converged_reason, err)

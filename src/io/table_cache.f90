@@ -20,7 +20,7 @@ module beadmob_table_cache
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_hdf5_support, only: write_attribute
+  use beadmob_hdf5_support, only: write_attribute, read_text_attribute, read_int_attribute, quiet_hdf5
   implicit none
   private
   public :: cache_key_t, read_cached_blocks, write_cached_blocks, read_cached_lubrication, write_cached_lubrication
@@ -31,8 +31,6 @@ module beadmob_table_cache
   character(len=*), parameter :: sections(2) = [character(len=11) :: 'blocks', 'lubrication']
   !> Elements per dataset chunk (the unit of the checksum): about 1 MB.
   integer(i8), parameter :: chunk_elements = 131072
-  !> Longest key text read back (keys are a few hundred characters).
-  integer, parameter :: max_text_length = 65536
 
   !> What identifies a cache entry.
   type :: cache_key_t
@@ -244,15 +242,6 @@ contains
     if (hdf_status < 0) call raise(err, 'HDF5 failed to ' // what)
   end subroutine check
 
-  !> HDF5 prints its error stack on every failed call by default; a damaged cache is an expected
-  !> case here, reported by one warning line instead. `quiet` = .false. restores the printing.
-  subroutine quiet_hdf5(quiet)
-    logical, intent(in) :: quiet
-    integer :: status
-    call h5open_f(status)
-    call h5eset_auto_f(merge(0, 1, quiet), status)
-  end subroutine quiet_hdf5
-
   !> File access: newer metadata format (HDF5 >= 1.8, with checksums) and every object closed
   !> with the file (so error paths leak nothing).
   function file_access() result(access)
@@ -370,60 +359,6 @@ contains
       call h5dclose_f(dataset, status)
     end if
   end subroutine open_dataset
-
-  subroutine read_text_attribute(location, name, value, err)
-    integer(hid_t), intent(in) :: location
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable, intent(out) :: value
-    type(error_t), intent(inout) :: err
-    integer(hid_t) :: attribute, file_type, memory_type
-    integer(size_t) :: length
-    integer :: status, class, nul
-    character(len=:), allocatable :: buffer
-    value = ''
-    call h5aopen_f(location, name, attribute, status)
-    if (status < 0) then
-      call raise(err, 'no attribute ' // name)
-      return
-    end if
-    call h5aget_type_f(attribute, file_type, status)
-    call h5tget_class_f(file_type, class, status)
-    call h5tget_size_f(file_type, length, status)
-    call h5tclose_f(file_type, status)
-    if (class /= H5T_STRING_F .or. length < 1 .or. length > max_text_length) then
-      call raise(err, 'attribute ' // name // ' is not a text')
-      call h5aclose_f(attribute, status)
-      return
-    end if
-    call h5tcopy_f(H5T_FORTRAN_S1, memory_type, status)
-    call h5tset_size_f(memory_type, length, status)
-    allocate (character(len=length) :: buffer)
-    call h5aread_f(attribute, memory_type, buffer, [1_hsize_t], status)
-    call check(status, 'read attribute ' // name, err)
-    call h5tclose_f(memory_type, status)
-    call h5aclose_f(attribute, status)
-    nul = index(buffer, achar(0))
-    if (nul > 0) buffer = buffer(1:nul - 1)
-    value = trim(buffer)
-  end subroutine read_text_attribute
-
-  subroutine read_int_attribute(location, name, value, err)
-    integer(hid_t), intent(in) :: location
-    character(len=*), intent(in) :: name
-    integer, intent(out) :: value
-    type(error_t), intent(inout) :: err
-    integer(hid_t) :: attribute
-    integer :: status
-    value = 0
-    call h5aopen_f(location, name, attribute, status)
-    if (status < 0) then
-      call raise(err, 'no attribute ' // name)
-      return
-    end if
-    call h5aread_f(attribute, H5T_NATIVE_INTEGER, value, [1_hsize_t], status)
-    call check(status, 'read attribute ' // name, err)
-    call h5aclose_f(attribute, status)
-  end subroutine read_int_attribute
 
   !> Create the temporary file next to `path`, copy every entry of the old cache (when it is a
   !> readable cache) except /section/<key name>, and create that entry's group with its key.

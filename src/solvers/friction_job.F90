@@ -18,7 +18,9 @@ module beadmob_friction_job
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_shell_model, only: shell_mask
-  use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t
+  use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t, solve_control_t
+  use beadmob_progress, only: progress_line
+  use beadmob_checkpoint_file, only: reals_digest
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
@@ -59,6 +61,18 @@ module beadmob_friction_job
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
     !> table_cache.f90): a cached run gives the same numbers to the last bit.
     character(len=1024) :: cache_file = ''
+    !> Rank 0 prints progress lines (phases, solves). Off in the library; the driver sets it from
+    !> &run progress and -quiet (operator_option).
+    logical :: progress = .false.
+    !> Checkpoint of the solved motions ('' = none; the driver: '<output>.checkpoint.h5'), see
+    !> checkpoint_file.f90
+    character(len=1024) :: checkpoint_file = ''
+    !> The input part of the checkpoint's key: the effective input without the switches that
+    !> change no number (input_config.f90, effective_input_text)
+    character(len=:), allocatable :: checkpoint_input
+    !> Test option -stop_after_solves k: stop with an error after the k-th solve has been saved
+    !> (0 = never; -1: given but not a number >= 1, an error)
+    integer :: stop_after_solves = 0
   end type friction_settings_t
 
   type :: friction_result_t
@@ -111,6 +125,10 @@ contains
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
       return
     end if
+    if (settings%stop_after_solves < 0) then
+      call raise(err, '-stop_after_solves needs a number of solves >= 1')
+      return
+    end if
     if (settings%shell_layers == 0) then
       call friction_of_beads(ctx, settings, centres, reference_point, result, err)
       return
@@ -149,6 +167,8 @@ contains
     PetscErrorCode :: ierr   ! also the MPI error code (both default integers)
     PetscLogStage :: stages(size(phase_names) - 1)
     character(len=32) :: stage_name
+    type(solve_control_t) :: control
+    logical :: report
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
@@ -160,6 +180,7 @@ contains
       end if
     end do
     start = MPI_Wtime()
+    report = settings%progress .and. ctx%rank == 0
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%order, settings%potential_order)
     result%unknowns_per_bead = basis%size
@@ -174,6 +195,8 @@ contains
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
+    call progress_line(report, 'phase blocks: ' // str(size(centres, 2)) // ' beads in the solve, ' // &
+                       str(basis%size) // ' unknowns each, ' // trim(result%operator_name) // ' operator')
     result%cache_file = settings%cache_file
     if (result%operator_name == 'fft') then
       fft_op%table%cache_file = trim(settings%cache_file)   ! read by make_block_table
@@ -237,10 +260,27 @@ contains
     end if
     ! Unallocated optional arguments count as absent (Fortran 2008).
     if (settings%bead_forces) allocate (result%bead_forces(36, count))
+    control%progress = report
+    control%stop_after_solves = settings%stop_after_solves
+    control%checkpoint_file = trim(settings%checkpoint_file)
+    if (len(control%checkpoint_file) > 0) control%checkpoint_key = checkpoint_key(settings, centres, reference_point, &
+                                                                                 basis%size, result%operator_name)
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
                              settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
-                             symmetry, settings%motions)
+                             symmetry, settings%motions, control, err)
     if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
+    if (err%failed) then   ! the test stop: the same solve count on every rank
+      if (.not. allocated(bead_blocks)) then
+        PetscCallA(MatDestroy(near_field, ierr))
+      end if
+      if (result%operator_name == 'fft') then
+        call destroy_fft_operator(fft_op, matrix)
+      else
+        call destroy_bead_operator(direct_op, matrix)
+      end if
+      PetscCallA(PetscLogStagePop(ierr))
+      return
+    end if
     do phase = 1, 6   ! entries between two motions not computed are unknown
       where (result%solves%source < 0 .and. result%solves%source(phase) < 0) &
         result%multipole_friction(:, phase) = ieee_value(1.0_dp, ieee_quiet_nan)
@@ -291,13 +331,49 @@ contains
       PetscCallA(PetscLogStagePop(ierr))
       if (phase < size(stages)) then
         PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
+        call progress_line(report, 'phase ' // trim(phase_names(phase + 1)) // ' (' // &
+                           fixed_seconds(MPI_Wtime() - start) // ' s into the friction job)')
       end if
     end subroutine mark
   end subroutine friction_of_beads
 
+  !> The part of a checkpoint's key the friction job knows (rigid_body_solve.F90 adds the Krylov
+  !> settings used): everything the solutions depend on. The beads in the solve enter by a digest
+  !> of their coordinates' bits, since a bead file can change under an unchanged input.
+  function checkpoint_key(settings, centres, reference_point, unknowns_per_bead, operator_name) result(key)
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    integer, intent(in) :: unknowns_per_bead
+    character(len=*), intent(in) :: operator_name
+    character(len=:), allocatable :: key
+    character(len=160) :: line
+    character(len=1), parameter :: nl = new_line('a')
+    key = 'beadmob checkpoint key 1' // nl
+    if (allocated(settings%checkpoint_input)) key = key // settings%checkpoint_input
+    write (line, '(a, 3es25.17)') 'reference point:', reference_point
+    key = key // 'beads in the solve: ' // str(size(centres, 2)) // ', coordinates digest ' // &
+          reals_digest(centres) // nl // trim(line) // nl // &
+          'unknowns per bead: ' // str(unknowns_per_bead) // nl // &
+          'operator: ' // trim(operator_name) // ', fft planner ' // trim(settings%fft_planner) // nl // &
+          'near field: radius ' // str(settings%near_field_radius) // ', cluster ' // &
+          str(settings%near_field_cluster) // nl
+  end function checkpoint_key
+
+  !> Seconds with one decimal (progress lines).
+  function fixed_seconds(seconds) result(text)
+    real(dp), intent(in) :: seconds
+    character(len=:), allocatable :: text
+    character(len=24) :: buffer
+    write (buffer, '(f0.1)') max(seconds, 0.0_dp)
+    text = trim(buffer)
+    if (text(1:1) == '.') text = '0' // text
+  end function fixed_seconds
+
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
   !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C
-  !> (lattice cells), -geometry_only (skip the friction job) and -accuracy TARGET (its text, read
+  !> (lattice cells), -quiet (no progress lines: settings%progress = .false., else .true.; the
+  !> driver also asks &run progress), -stop_after_solves K (a test of the checkpoint: stop after
+  !> the K-th solve is saved), -geometry_only (skip the friction job) and -accuracy TARGET (its text, read
   !> by the caller, and accuracy_given; rtol_given: whether -ksp_rtol is set too, which would
   !> override the tolerance the target chooses).
   subroutine operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
@@ -318,6 +394,10 @@ contains
     if (found) settings%near_field_cluster = int(edge)
     PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-fft_planner', value, found, ierr))
     if (found) settings%fft_planner = value
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-quiet', found, ierr))
+    settings%progress = .not. found
+    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-stop_after_solves', edge, found, ierr))
+    if (found) settings%stop_after_solves = merge(int(edge), -1, edge >= 1)
     PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
     geometry_only = found
     if (present(accuracy)) then

@@ -17,13 +17,22 @@
 module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp
+  use, intrinsic :: iso_fortran_env, only: error_unit
+  use hdf5, only: hid_t
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
   use beadmob_motion_symmetry, only: motion_symmetry_t, derive_solution
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
+  use beadmob_progress, only: progress_line
+  use beadmob_checkpoint_file, only: saved_solve_t, checkpoint_writer_t, begin_checkpoint, write_checkpoint_motion, &
+                                     commit_checkpoint, open_checkpoint, read_checkpoint_motion, close_checkpoint, &
+                                     fnv1a_hex, checkpoint_matches, checkpoint_other_key
   implicit none
   private
-  public :: solve_statistics_t, rigid_body_friction, motion_names
+  public :: solve_statistics_t, solve_control_t, rigid_body_friction, motion_names
 
   character(len=*), parameter :: motion_names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
 
@@ -41,7 +50,27 @@ module beadmob_rigid_body_solve
     real(dp) :: plain_symmetry_error = 0.0_dp
     !> max |q_m . r_n| / max |zeta|: size of the variational correction (the plain estimate's error)
     real(dp) :: variational_correction = 0.0_dp
+    !> 1: the motion's solution was loaded from the checkpoint instead of solved
+    integer :: resumed(6) = 0
   end type solve_statistics_t
+
+  !> How the solves report and save (friction_job.F90 fills it from its settings).
+  type :: solve_control_t
+    !> Rank 0 prints a progress line per solve (the caller passes .false. on other ranks)
+    logical :: progress = .false.
+    !> Checkpoint file of the solved motions (checkpoint_file.f90); '' = none
+    character(len=:), allocatable :: checkpoint_file
+    !> Everything the solutions depend on but the Krylov settings, which are added here (the ones
+    !> actually used, after -ksp_ / -pc_ options)
+    character(len=:), allocatable :: checkpoint_key
+    !> A test of the resume: stop with an error right after this many solves have been saved,
+    !> as a kill at a wall-time limit would (0 = never)
+    integer :: stop_after_solves = 0
+  end type solve_control_t
+
+  !> A loaded solution must give the true residual it was saved with (to rounding, which varies
+  !> with the number of ranks): otherwise it does not solve this run's system and is solved again.
+  real(dp), parameter :: resumed_residual_tolerance = 1.0e-3_dp
 
 contains
 
@@ -55,9 +84,11 @@ contains
   !> requested, when present, names the motions to compute (with the sources of requested
   !> derived ones); friction(m, n) = c_m . q_n for m not computed, n computed (first order in
   !> the solver error, the variational form needs q_m), and 0 where neither is computed.
+  !> control, when present, asks for progress lines, the checkpoint and the test stop; err is then
+  !> needed too (the test stop and nothing else raises it, the same on every rank).
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
                                  reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks, &
-                                 symmetry, requested)
+                                 symmetry, requested, control, err)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
@@ -71,7 +102,15 @@ contains
     type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
     type(motion_symmetry_t), intent(in), optional :: symmetry
     logical, intent(in), optional :: requested(6)
-    logical :: computed(6)
+    type(solve_control_t), intent(in), optional :: control
+    type(error_t), intent(inout), optional :: err
+    logical :: computed(6), loaded(6), saving, report
+    type(saved_solve_t) :: saved(6)
+    type(run_context_t) :: ctx
+    character(len=:), allocatable :: checkpoint_file, key
+    real(dp) :: solve_seconds, started
+    integer :: solves_done, solves_planned
+    real(dp), target :: no_columns(size(projection, 1), 0)
     KSP :: ksp
     PC :: pc
     Vec :: template
@@ -84,10 +123,18 @@ contains
     KSPType :: ksp_type
     PCType :: pc_type
     real(dp) :: arm(3), plain(6, 6), correction(6, 6)
-    integer(i8) :: i, bead
+    integer(i8) :: i, bead, n_total
     integer :: motion, other, nb
 
     nb = size(projection, 1)
+    n_total = size(centres, 2, kind=i8)
+    ctx = make_run_context(comm)
+    report = .false.
+    checkpoint_file = ''
+    if (present(control)) then
+      report = control%progress
+      if (allocated(control%checkpoint_file)) checkpoint_file = control%checkpoint_file
+    end if
     PetscCallA(KSPCreate(comm, ksp, ierr))
     PetscCallA(KSPSetType(ksp, KSPCG, ierr))
     PetscCallA(KSPGetPC(ksp, pc, ierr))
@@ -123,6 +170,22 @@ contains
       end do
       where (.not. computed) stats%source = -1
     end if
+
+    ! The checkpoint's key: the caller's part and the Krylov settings actually used.
+    saving = len(checkpoint_file) > 0
+    loaded = .false.
+    if (saving) then
+      PetscCallA(KSPGetType(ksp, ksp_type, ierr))
+      PetscCallA(PCGetType(pc, pc_type, ierr))
+      PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
+      key = control%checkpoint_key // 'krylov: ' // trim(ksp_type) // ', preconditioner ' // trim(pc_type) // &
+            ', rtol ' // real_text(rtol) // ', abstol ' // real_text(abstol) // ', dtol ' // real_text(dtol) // &
+            ', max_it ' // str(int(max_iterations)) // new_line('a')
+      call load_checkpoint()
+    end if
+    solves_planned = count(stats%source == 0 .and. .not. loaded)
+    solves_done = 0
+    solve_seconds = 0.0_dp
     do motion = 1, 6
       ! c_i = projection (U_i, Omega_i), U_i = V + w x (R_i - R_0), Omega_i = w.
       PetscCallA(VecGetArrayF90(rhs(motion), values, ierr))
@@ -145,20 +208,52 @@ contains
         call derive_solution(symmetry, motion, solution(stats%source(motion)), solution(motion))
         iterations = 0
         reason = stats%converged_reason(stats%source(motion))
-      else
+        call true_residual(motion)
+      else if (loaded(motion)) then
+        ! Resumed: the record of the solve that made it, and its true residual checked again.
+        iterations = saved(motion)%iterations
+        reason = saved(motion)%converged_reason
+        call true_residual(motion)
+        if (.not. (abs(stats%true_relative_residual(motion) - saved(motion)%true_relative_residual) <= &
+                   resumed_residual_tolerance * saved(motion)%true_relative_residual + 1.0e-15_dp)) then
+          if (ctx%rank == 0) write (error_unit, '(a, es9.2, a, es9.2, a)') 'beadmob: warning: checkpoint ''' // &
+            checkpoint_file // ''': motion ' // motion_names(motion) // ' gives the true relative residual', &
+            stats%true_relative_residual(motion), ' instead of the saved', saved(motion)%true_relative_residual, &
+            '; solved again'
+          loaded(motion) = .false.
+          solves_planned = solves_planned + 1
+        else
+          call progress_line(report, 'solve ' // motion_names(motion) // ': resumed from the checkpoint')
+        end if
+      end if
+      if (stats%source(motion) == 0 .and. .not. loaded(motion)) then
+        started = MPI_Wtime()
         PetscCallA(VecZeroEntries(solution(motion), ierr))
         PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
         PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
         PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
+        call true_residual(motion)
+        saved(motion) = saved_solve_t(int(iterations), int(reason), stats%true_relative_residual(motion))
+        ! Saved at once: a kill from here on loses nothing of this solve.
+        if (saving) call save_checkpoint(motion)
+        solves_done = solves_done + 1
+        solve_seconds = solve_seconds + (MPI_Wtime() - started)
+        call progress_line(report, 'solve ' // motion_names(motion) // ': ' // str(int(iterations)) // &
+                           ' iterations, ' // seconds_text(MPI_Wtime() - started) // ' s; ' // &
+                           str(solves_planned - solves_done) // ' solves left, ~' // &
+                           seconds_text(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
+        if (present(control) .and. present(err)) then
+          if (solves_done == control%stop_after_solves) then
+            ! Every rank counts the same solves: they all stop here together.
+            call raise(err, 'stopped after ' // str(solves_done) // ' solves as -stop_after_solves asks (a test ' // &
+                       'of the resume)' // saved_where())
+            call release()
+            return
+          end if
+        end if
       end if
-      ! True residual r = c - A q, independent of the preconditioned norm KSP monitors.
-      PetscCallA(MatMult(matrix, solution(motion), residual(motion), ierr))
-      PetscCallA(VecAYPX(residual(motion), -1.0_dp, rhs(motion), ierr))
-      PetscCallA(VecNorm(residual(motion), NORM_2, residual_norm, ierr))
-      PetscCallA(VecNorm(rhs(motion), NORM_2, rhs_norm, ierr))
       stats%iterations(motion) = int(iterations)
       stats%converged_reason(motion) = int(reason)
-      stats%true_relative_residual(motion) = residual_norm / rhs_norm
       if (present(bead_forces)) then
         PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
         do i = 1, n_local
@@ -186,14 +281,138 @@ contains
     stats%pc_type = pc_type
     if (present(bead_blocks) .and. pc_type == PCSHELL) stats%pc_type = 'single-bead blocks (shell)'
     stats%relative_tolerance = rtol
-    do motion = 1, 6
-      PetscCallA(VecDestroy(rhs(motion), ierr))
-      PetscCallA(VecDestroy(solution(motion), ierr))
-      PetscCallA(VecDestroy(residual(motion), ierr))
-    end do
-    PetscCallA(VecDestroy(template, ierr))
-    PetscCallA(KSPDestroy(ksp, ierr))
+    stats%resumed = merge(1, 0, loaded)
+    call release()
+
+  contains
+
+    !> stats%true_relative_residual(m) = |c - A q| / |c|, with r = c - A q kept for the friction:
+    !> the true residual, independent of the preconditioned norm KSP monitors.
+    subroutine true_residual(m)
+      integer, intent(in) :: m
+      PetscCallA(MatMult(matrix, solution(m), residual(m), ierr))
+      PetscCallA(VecAYPX(residual(m), -1.0_dp, rhs(m), ierr))
+      PetscCallA(VecNorm(residual(m), NORM_2, residual_norm, ierr))
+      PetscCallA(VecNorm(rhs(m), NORM_2, rhs_norm, ierr))
+      stats%true_relative_residual(m) = residual_norm / rhs_norm
+    end subroutine true_residual
+
+    !> The motions of a checkpoint with this run's key into `solution` (loaded). Another key or
+    !> an unreadable file: one warning line, nothing loaded, and the file is overwritten by the
+    !> first save.
+    subroutine load_checkpoint()
+      type(error_t) :: problem
+      integer(hid_t) :: file_id
+      integer :: outcome, m
+      logical :: found
+      real(dp), pointer :: block(:, :)
+      call open_checkpoint(ctx, checkpoint_file, key, file_id, outcome, problem)
+      if (outcome == checkpoint_matches) then
+        do m = 1, 6
+          if (stats%source(m) /= 0) cycle   ! derived motions are recomputed from their sources
+          PetscCallA(VecGetArrayF90(solution(m), values, ierr))
+          block => columns(values)
+          call read_checkpoint_motion(file_id, motion_names(m), block, first_bead, n_total, found, saved(m), problem)
+          PetscCallA(VecRestoreArrayF90(solution(m), values, ierr))
+          loaded(m) = found
+          ! The next read is collective: every rank must know that this one failed somewhere.
+          call agree_on_error(ctx, problem)
+          if (problem%failed) exit
+        end do
+        call close_checkpoint(file_id, problem)
+        call agree_on_error(ctx, problem)
+        if (problem%failed) loaded = .false.
+      end if
+      if (ctx%rank == 0) then
+        if (problem%failed) then
+          write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // "': " // problem%message // &
+            '; ignored, this run overwrites it'
+        else if (outcome == checkpoint_other_key) then
+          write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // "' is of another job " // &
+            '(its key differs: other input, beads or solver settings); ignored, this run overwrites it'
+        end if
+      end if
+      if (count(loaded) > 0) call progress_line(report, 'checkpoint: ' // str(count(loaded)) // ' motions to resume')
+    end subroutine load_checkpoint
+
+    !> Collective. Save every motion solved or resumed so far (with `m`, just solved) to a new
+    !> checkpoint. A checkpoint that cannot be written gives one warning; the run goes on
+    !> without saving (its result does not depend on it).
+    subroutine save_checkpoint(m)
+      integer, intent(in) :: m
+      type(error_t) :: problem
+      type(checkpoint_writer_t) :: writer
+      integer :: k
+      real(dp), pointer :: block(:, :)
+      call begin_checkpoint(ctx, checkpoint_file, key, n_total, nb, writer, problem)
+      if (.not. problem%failed) then
+        do k = 1, 6
+          if (.not. (k == m .or. loaded(k) .or. (stats%source(k) == 0 .and. k < m))) cycle
+          PetscCallA(VecGetArrayReadF90(solution(k), values, ierr))
+          block => columns(values)
+          call write_checkpoint_motion(writer, motion_names(k), block, first_bead, n_total, saved(k), problem)
+          PetscCallA(VecRestoreArrayReadF90(solution(k), values, ierr))
+        end do
+        call commit_checkpoint(ctx, writer, problem)
+      end if
+      if (problem%failed) then
+        saving = .false.
+        if (ctx%rank == 0) write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // &
+          "' not written: " // problem%message // '; the run goes on without saving its solves'
+      end if
+    end subroutine save_checkpoint
+
+    !> This rank's part of a solution vector as (nb, n_local) columns of global beads.
+    function columns(flat) result(block)
+      PetscScalar, pointer, intent(in) :: flat(:)
+      real(dp), pointer :: block(:, :)
+      if (n_local > 0) then
+        block(1:nb, 1:n_local) => flat
+      else   ! a rank without beads: a zero-size array, whatever PETSc returns for none
+        block => no_columns
+      end if
+    end function columns
+
+    function saved_where() result(text)
+      character(len=:), allocatable :: text
+      text = ''
+      if (saving) text = ", saved in '" // checkpoint_file // "'"
+    end function saved_where
+
+    subroutine release()
+      integer :: m
+      do m = 1, 6
+        PetscCallA(VecDestroy(rhs(m), ierr))
+        PetscCallA(VecDestroy(solution(m), ierr))
+        PetscCallA(VecDestroy(residual(m), ierr))
+      end do
+      PetscCallA(VecDestroy(template, ierr))
+      PetscCallA(KSPDestroy(ksp, ierr))
+    end subroutine release
   end subroutine rigid_body_friction
+
+  !> A real as text that reads back to the same number (for keys).
+  function real_text(value) result(text)
+    real(dp), intent(in) :: value
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    write (buffer, '(es24.16e3)') value
+    text = trim(adjustl(buffer))
+  end function real_text
+
+  !> Seconds for progress lines: two decimals below 100 s, whole seconds above.
+  function seconds_text(seconds) result(text)
+    real(dp), intent(in) :: seconds
+    character(len=:), allocatable :: text
+    character(len=24) :: buffer
+    if (seconds < 100.0_dp) then
+      write (buffer, '(f0.2)') max(seconds, 0.0_dp)
+    else
+      write (buffer, '(i0)') nint(seconds)
+    end if
+    text = trim(buffer)
+    if (text(1:1) == '.') text = '0' // text
+  end function seconds_text
 
   pure function rigid_velocity(motion, arm) result(velocity)
     integer, intent(in) :: motion
