@@ -12,6 +12,7 @@ program test_input_config
   call test_values_and_defaults()
   call test_round_trip()
   call test_errors()
+  call test_run_switches()
   call finish_tests(suite)
 
 contains
@@ -71,4 +72,37 @@ contains
     call parse_input_text("&shape name = 'cone', height = abc /", 'g.nml', config, err)
     call check(suite, err%failed, 'non-numeric value rejected')
   end subroutine test_errors
+
+  !> &run progress and checkpoint (issue 13): defaults, values, the numbers-only effective text
+  !> (the checkpoint key must not change with them) and bad values named with their line.
+  subroutine test_run_switches()
+    type(run_config_t) :: config, second
+    type(error_t) :: err
+    call parse_input_text("&shape name = 'cone' /", 'a.nml', config, err)
+    call check(suite, config%progress .and. config%checkpoint, 'progress and checkpoint default on')
+    call parse_input_text("&run output = 'progress = 3.h5', progress = .false., ! progress = 3" // nl // &
+                          "  checkpoint = F /" // nl // "&shape name = 'cone' /", 'a.nml', config, err)
+    call check(suite, .not. err%failed, 'switches read (quoted text and comment ignored)')
+    call check(suite, .not. config%progress .and. .not. config%checkpoint, 'progress and checkpoint off')
+    call parse_input_text(effective_input_text(config), 'effective.nml', second, err)
+    call check(suite, .not. second%progress .and. .not. second%checkpoint, 'round trip: switches')
+    call check(suite, effective_input_text(config, numbers_only=.true.) == effective_input_text(second, &
+               numbers_only=.true.), 'numbers-only text equal')
+    second%progress = .true.
+    second%checkpoint = .true.
+    call check(suite, effective_input_text(config, numbers_only=.true.) == effective_input_text(second, &
+               numbers_only=.true.), 'numbers-only text does not depend on the switches')
+    call check(suite, index(effective_input_text(config, numbers_only=.true.), nl // '  progress =') == 0, &
+               'numbers-only text without progress')
+    err = error_t()
+    call parse_input_text("&run output = 'a.h5'," // nl // " progress = 3 /" // nl // "&shape name = 'cone' /", &
+                          'h.nml', config, err)
+    call check(suite, err%failed, 'progress = 3 rejected')
+    if (err%failed) call check(suite, index(err%message, "h.nml line 2: &run progress must be .true. or .false., " // &
+                                            "got '3'") > 0, 'progress = 3 named: ' // err%message)
+    err = error_t()
+    call parse_input_text("&run checkpoint = 'no' /" // nl // "&shape name = 'cone' /", 'i.nml', config, err)
+    call check(suite, err%failed, "checkpoint = 'no' rejected")
+    if (err%failed) call check(suite, index(err%message, "got ''no''") > 0, "checkpoint = 'no' named: " // err%message)
+  end subroutine test_run_switches
 end program test_input_config
