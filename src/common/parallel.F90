@@ -14,6 +14,7 @@ module beadmob_parallel
     integer :: comm = MPI_COMM_WORLD
     integer :: rank = 0
     integer :: n_ranks = 1
+    integer :: ranks_on_node = 1   ! ranks sharing this rank's node (and its memory)
   end type run_context_t
 
   integer, parameter :: message_length = 2048
@@ -23,10 +24,15 @@ contains
   function make_run_context(comm) result(ctx)
     integer, intent(in) :: comm
     type(run_context_t) :: ctx
-    integer :: ierr
+    integer :: ierr, node_comm
     ctx%comm = comm
     call MPI_Comm_rank(comm, ctx%rank, ierr)
     call MPI_Comm_size(comm, ctx%n_ranks, ierr)
+    call MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, ctx%rank, MPI_INFO_NULL, node_comm, ierr)
+    if (ierr == MPI_SUCCESS) then
+      call MPI_Comm_size(node_comm, ctx%ranks_on_node, ierr)
+      call MPI_Comm_free(node_comm, ierr)
+    end if
   end function make_run_context
 
   !> Collective: afterwards `err` is failed on every rank if it was failed on any rank,

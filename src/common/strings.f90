@@ -3,7 +3,7 @@ module beadmob_strings
   use beadmob_kinds, only: dp, i4, i8
   implicit none
   private
-  public :: str
+  public :: str, str_approx
 
   interface str
     module procedure str_int4, str_int8, str_real, str_logical
@@ -35,6 +35,24 @@ contains
     write (buffer, '(g0)') value
     text = trim(adjustl(buffer))
   end function str_real
+
+  !> Three significant digits, for sizes and times in messages (1.23e+09, 384, 0.0123).
+  pure function str_approx(value) result(text)
+    real(dp), intent(in) :: value
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    if (abs(value) >= 1.0e5_dp .or. (abs(value) < 1.0e-2_dp .and. value /= 0.0_dp)) then
+      write (buffer, '(es10.2)') value
+    else if (abs(value) >= 100.0_dp) then
+      write (buffer, '(f0.0)') value
+      buffer = buffer(1:len_trim(buffer) - 1)   ! no trailing point
+    else
+      write (buffer, '(f0.2)') value
+      if (buffer(1:1) == '.') buffer = '0' // buffer
+      if (buffer(1:2) == '-.') buffer = '-0' // buffer(2:)
+    end if
+    text = trim(adjustl(buffer))
+  end function str_approx
 
   pure function str_logical(value) result(text)
     logical, intent(in) :: value

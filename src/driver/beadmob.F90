@@ -28,10 +28,11 @@ program beadmob
   PetscCallA(PetscInitialize(ierr))
   call accept_long_options()
   ctx = make_run_context(PETSC_COMM_WORLD)
-  ! The input file, when given, is the first argument; PETSc options follow.
+  ! The input file, when given, is the first argument (after --estimate); PETSc options follow.
   input_path = ''
   if (command_argument_count() >= 1) then
     call get_command_argument(1, input_path)
+    if (input_path == '--estimate' .and. command_argument_count() >= 2) call get_command_argument(2, input_path)
     if (input_path(1:1) == '-') input_path = ''
   end if
 
@@ -44,12 +45,15 @@ program beadmob
 contains
 
   !> --accuracy X and --accuracy=X (the GNU spelling) mean PETSc's -accuracy X, which PETSc
-  !> itself would not see.
+  !> itself would not see; --estimate means -estimate (the dry run).
   subroutine accept_long_options()
     character(len=256) :: argument, value
     integer :: k, equals
     do k = 1, command_argument_count()
       call get_command_argument(k, argument)
+      if (argument == '--estimate') then
+        PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-estimate', PETSC_NULL_CHARACTER, ierr))
+      end if
       if (argument(1:10) /= '--accuracy') cycle
       equals = index(argument, '=')
       value = ''
@@ -63,7 +67,7 @@ contains
   end subroutine accept_long_options
 
   subroutine print_usage()
-    write (*, '(a)') 'usage: beadmob [INPUT.nml] [PETSc options]', &
+    write (*, '(a)') 'usage: beadmob [--estimate] [INPUT.nml] [PETSc options]', &
       '       mpirun -n P beadmob [INPUT.nml] [PETSc options]', &
       '', &
       'Builds the bead model described by INPUT.nml (Fortran namelists &run, &shape and, for the', &
@@ -77,6 +81,11 @@ contains
       '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
       '  -near_field_cluster C       and pairs within the same C x C x C cube of lattice cells', &
       '  -geometry_only              build and check the bead model, skip &hydrodynamics', &
+      '  --estimate (or -estimate)   dry run: bead count, unknowns, FFT box, memory per rank and', &
+      '                              expected time of the job, nothing built (beadmob --estimate IN.nml)', &
+      '  -estimate_ranks P           the estimate for P ranks (default: the ranks of the run)', &
+      '  -memory_limit G             GiB a rank may use (default: what the node has available,', &
+      '                              shared by its ranks); a job estimated above it is refused', &
       '  -accuracy E (or --accuracy E)  the cheapest settings that the benchmark data say reach a', &
       '                              relative error E of the mobility coefficients (bench/accuracy.md)', &
       'PETSc options (-log_view, -ksp_type, -ksp_rtol, -pc_type, ...) are passed to PETSc.'

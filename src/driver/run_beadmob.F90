@@ -21,6 +21,7 @@ module beadmob_run
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy
   use beadmob_block_table, only: on_unit_lattice
+  use beadmob_job_planning, only: plan_friction_job, dry_run_requested
   implicit none
   private
   public :: run_beadmob, read_input_file
@@ -39,7 +40,7 @@ contains
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
     type(accuracy_choice_t) :: choice
-    logical :: geometry_only, accuracy_given, rtol_given, on_lattice
+    logical :: geometry_only, accuracy_given, rtol_given, on_lattice, dry_run
     character(len=64) :: accuracy
     character(len=:), allocatable :: text, source
 
@@ -58,14 +59,6 @@ contains
     call build_bead_model(ctx, config%shape, model, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
-    call check_bead_model(model, config%overlap_tolerance, err)
-    if (err%failed) return
-    call compute_body_frame(model%centres, frame, err)
-    call agree_on_error(ctx, err)
-    if (err%failed) return
-    ! Without a paper value, L is the size along the body x axis (paper: x along L).
-    if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
-
     ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
     call operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
     if (geometry_only) config%hydrodynamics%enabled = .false.
@@ -87,6 +80,25 @@ contains
       settings%shell_layers = config%hydrodynamics%shell_layers
       settings%cache_file = config%hydrodynamics%cache_file
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
+      ! Know before you run: the dry run stops here, a job that cannot fit is refused here,
+      ! before the geometry checks (O(N) passes that a model far too large should not wait for).
+      call plan_friction_job(ctx, settings, model%centres, dry_run, err)
+      if (err%failed .or. dry_run) return   ! agreed on inside; a dry run writes no result file
+    else if (dry_run_requested()) then
+      call raise(err, '--estimate estimates the friction job: the input needs a &hydrodynamics group ' // &
+                 '(and no -geometry_only)')
+      return   ! the same options on every rank
+    end if
+
+    call check_bead_model(model, config%overlap_tolerance, err)
+    if (err%failed) return
+    call compute_body_frame(model%centres, frame, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    ! Without a paper value, L is the size along the body x axis (paper: x along L).
+    if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
+
+    if (config%hydrodynamics%enabled) then
       ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines.
       settings%progress = settings%progress .and. config%progress
       if (config%checkpoint) then

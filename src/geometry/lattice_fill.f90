@@ -2,10 +2,13 @@
 !> a plain function of the node (cone, spheroid, torus), and the boundary tolerance all
 !> shape builders use for nodes that lie on a surface in exact arithmetic.
 module beadmob_lattice_fill
-  use beadmob_kinds, only: dp
+  use beadmob_kinds, only: dp, i4
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str, str_approx
+  use beadmob_resources, only: available_memory_bytes
   implicit none
   private
-  public :: lattice_nodes_inside, inside_test, boundary_tolerance
+  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites
 
   !> Relative tolerance of the inside tests of the shape builders.
   real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
@@ -20,15 +23,21 @@ module beadmob_lattice_fill
 contains
 
   !> Integer lattice nodes in the box lower..upper (per axis) for which `inside` is true,
-  !> in the order x fastest, then y, then z.
-  function lattice_nodes_inside(lower, upper, inside) result(centres)
+  !> in the order x fastest, then y, then z. `what` names the shape in an error.
+  subroutine lattice_nodes_inside(lower, upper, inside, what, centres, err)
     integer, intent(in) :: lower(3), upper(3)
     procedure(inside_test) :: inside
-    real(dp), allocatable :: centres(:, :)
+    character(len=*), intent(in) :: what
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
     real(dp), allocatable :: buffer(:, :)
     real(dp) :: node(3)
     integer :: i, j, k, count
-    allocate (buffer(3, product(max(upper - lower + 1, 0))))
+    call reserve_sites(upper - lower + 1, what, buffer, err)
+    if (err%failed) then
+      allocate (centres(3, 0))
+      return
+    end if
     count = 0
     do k = lower(3), upper(3)
       do j = lower(2), upper(2)
@@ -42,5 +51,37 @@ contains
       end do
     end do
     centres = buffer(:, 1:count)
-  end function lattice_nodes_inside
+  end subroutine lattice_nodes_inside
+
+  !> buffer(3, n) for the n = product(sites) candidate lattice nodes of a shape builder, refused
+  !> with one message (never a crash) when n exceeds the bead index range (default integers) or
+  !> the positions alone (24 B a node, twice: the buffer and the model) exceed the memory this
+  !> node has available. A model that passes may still be refused by the job estimate
+  !> (beadmob_job_estimate), which knows the operator.
+  subroutine reserve_sites(sites, what, buffer, err)
+    integer, intent(in) :: sites(3)
+    character(len=*), intent(in) :: what
+    real(dp), allocatable, intent(out) :: buffer(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp) :: n, needed, available
+    integer :: stat
+    n = product(real(max(sites, 0), dp))
+    needed = 2 * 24 * n
+    available = available_memory_bytes()
+    if (n > real(huge(1_i4), dp)) then
+      call raise(err, what // ': ' // str(sites(1)) // ' x ' // str(sites(2)) // ' x ' // str(sites(3)) // &
+                 ' = ' // str_approx(n) // ' lattice sites, more beads than beadmob indexes (' // str(huge(1_i4)) // &
+                 '); the positions alone would need ' // str_approx(needed / 1.0e9_dp) // ' GB per rank')
+    else if (available > 0.0_dp .and. needed > available) then
+      call raise(err, what // ': ' // str(sites(1)) // ' x ' // str(sites(2)) // ' x ' // str(sites(3)) // &
+                 ' = ' // str_approx(n) // ' lattice sites: their positions alone need ' // str_approx(needed / 1.0e9_dp) // &
+                 ' GB per rank, this node has ' // str_approx(available / 1.0e9_dp) // ' GB available')
+    else
+      allocate (buffer(3, int(n)), stat=stat)
+      if (stat /= 0) call raise(err, what // ': could not allocate the positions of ' // str_approx(n) // &
+                                ' lattice sites (' // str_approx(needed / 2.0e9_dp) // ' GB)')
+    end if
+    if (err%failed .and. .not. allocated(buffer)) allocate (buffer(3, 0))
+  end subroutine reserve_sites
+
 end module beadmob_lattice_fill

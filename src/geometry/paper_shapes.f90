@@ -14,7 +14,7 @@ module beadmob_paper_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
-  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites
   implicit none
   private
   public :: build_cone, build_arrowhead, build_open_ring, build_crescent_moon
@@ -85,7 +85,7 @@ contains
     tol = boundary_tolerance * max(1.0_dp, base_diameter, height)
     n_r = floor(0.5_dp * base_diameter + tol)
     n_z = floor(height + tol)
-    centres = lattice_nodes_inside([-n_r, -n_r, 0], [n_r, n_r, n_z], inside_cone)
+    call lattice_nodes_inside([-n_r, -n_r, 0], [n_r, n_r, n_z], inside_cone, 'cone', centres, err)
   contains
     logical function inside_cone(node)
       real(dp), intent(in) :: node(3)
@@ -126,7 +126,8 @@ contains
     n_x = floor(0.5_dp * length + tol)
     n_y = floor(width + tol)
     n_z = ceiling(height) + 1
-    allocate (buffer(3, (2 * n_x + 1) * (n_y + 1) * (n_z + 1)))
+    call reserve_sites([2 * n_x + 1, n_y + 1, n_z + 1], 'arrowhead', buffer, err)
+    if (err%failed) return
     count = 0
     do i = -n_x, n_x
       z_low = slope * abs(i)
@@ -187,7 +188,8 @@ contains
     n_x = ceiling(semi_major + pipe_radius)
     n_y = ceiling(semi_minor + pipe_radius)
     n_z = ceiling(pipe_radius)
-    allocate (buffer(3, (2 * n_x + 1) * (2 * n_y + 1) * (2 * n_z + 1)))
+    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1], 'open_ring', buffer, err)
+    if (err%failed) return
     count = 0
     do j = -n_y, n_y
       do i = -n_x, n_x
@@ -364,7 +366,8 @@ contains
     n_x = ceiling(6.0_dp * eta_x)          ! |5 cos p - sin 2p| <= 6
     n_z = ceiling(7.0_dp * eta_z) + 1      ! |3 sin p + 2 cos 2p| <= 5 < 7
     n_y = ceiling(section_ratio * n_z) + 1
-    allocate (buffer(3, (2 * n_x + 1) * (2 * n_y + 1) * (2 * n_z + 1)))
+    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1], 'crescent_moon', buffer, err)
+    if (err%failed) return
     count = 0
     do i = -n_x, n_x
       x = real(i, dp)

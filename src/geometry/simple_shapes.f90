@@ -12,7 +12,7 @@ module beadmob_simple_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
-  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites
   implicit none
   private
   public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
@@ -94,7 +94,7 @@ contains
       end if
     end do
     n = floor(semi_axes * (1.0_dp + boundary_tolerance))
-    centres = lattice_nodes_inside(-n, n, inside_spheroid)
+    call lattice_nodes_inside(-n, n, inside_spheroid, 'spheroid', centres, err)
   contains
     logical function inside_spheroid(node)
       real(dp), intent(in) :: node(3)
@@ -114,7 +114,8 @@ contains
                  // str(n_y) // ', ' // str(n_z))
       return
     end if
-    allocate (centres(3, n_x * n_y * n_z))
+    call reserve_sites([n_x, n_y, n_z], 'box', centres, err)
+    if (err%failed) return
     count = 0
     do k = 0, n_z - 1
       do j = 0, n_y - 1
@@ -144,7 +145,7 @@ contains
     end if
     n_xy = floor((major_radius + minor_radius) * (1.0_dp + boundary_tolerance))
     n_z = floor(minor_radius * (1.0_dp + boundary_tolerance))
-    centres = lattice_nodes_inside([-n_xy, -n_xy, -n_z], [n_xy, n_xy, n_z], inside_torus)
+    call lattice_nodes_inside([-n_xy, -n_xy, -n_z], [n_xy, n_xy, n_z], inside_torus, 'torus', centres, err)
   contains
     logical function inside_torus(node)
       real(dp), intent(in) :: node(3)

@@ -18,7 +18,8 @@ module beadmob_motion_symmetry
   use beadmob_multipole_basis, only: multipole_basis_t
   implicit none
   private
-  public :: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry, symmetry_tolerance
+  public :: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry, symmetry_tolerance, &
+            solves_needed
 
   !> Bead images must land on a bead within this distance (d).
   real(dp), parameter :: symmetry_tolerance = 1.0e-6_dp
@@ -51,31 +52,21 @@ contains
     integer(i8), allocatable :: image(:, :)
     logical :: in_group(n_symmetries)
     real(dp), allocatable :: all_transforms(:, :, :)
-    integer :: s, motion, target, sign, q(3, 3)
+    integer :: s, motion
     PetscErrorCode :: ierr
 
     call build_spatial_index(centres, index, err)
     if (err%failed) return
-    allocate (image(size(centres, 2), n_symmetries))
+    ! Each rank checks and keeps the images of its own beads only (O(N/P) memory per rank); a
+    ! symmetry is in the group when it holds on every rank.
+    allocate (image(first:first + n_local - 1, n_symmetries))
     do s = 1, n_symmetries
       in_group(s) = maps_onto_itself(symmetry_matrix(s), image(:, s))
     end do
+    call MPI_Allreduce(MPI_IN_PLACE, in_group, n_symmetries, MPI_LOGICAL, MPI_LAND, comm, ierr)
     symmetry%group_order = count(in_group)
 
-    ! One solved motion per orbit: the first of it; the others from it.
-    do motion = 1, 6
-      if (symmetry%source(motion) /= 0) cycle
-      do s = 1, n_symmetries
-        if (.not. in_group(s)) cycle
-        q = symmetry_matrix(s)
-        call image_motion(q, motion, target, sign)
-        if (target > motion .and. symmetry%source(target) == 0) then
-          symmetry%source(target) = motion
-          symmetry%sign(target) = sign
-          symmetry%symmetry(target) = s
-        end if
-      end do
-    end do
+    call orbit_sources(in_group, symmetry%source, symmetry%sign, symmetry%symmetry)
     if (all(symmetry%source == 0)) return
 
     allocate (all_transforms(basis%size, basis%size, n_symmetries), symmetry%transform(basis%size, basis%size, 6))
@@ -83,19 +74,19 @@ contains
     do motion = 1, 6
       if (symmetry%source(motion) == 0) cycle
       symmetry%transform(:, :, motion) = all_transforms(:, :, symmetry%symmetry(motion))
-      call make_permutation(image(first:first + n_local - 1, symmetry%symmetry(motion)), symmetry%permute(motion))
+      call make_permutation(image(:, symmetry%symmetry(motion)), symmetry%permute(motion))
     end do
 
   contains
 
-    !> True if Q maps every bead onto a bead; image(b) = that bead.
+    !> True if Q maps every bead of this rank onto a bead; image_of(b) = that bead.
     logical function maps_onto_itself(q, image_of)
       integer, intent(in) :: q(3, 3)
-      integer(i8), intent(out) :: image_of(:)
+      integer(i8), intent(out) :: image_of(first:)
       integer(i8), allocatable :: found(:)
       integer(i8) :: b, n_found
       maps_onto_itself = .false.
-      do b = 1, size(centres, 2, kind=i8)
+      do b = first, first + n_local - 1
         call beads_within(index, centres, reference_point + matmul(real(q, dp), centres(:, b) - reference_point), &
                           symmetry_tolerance, found, n_found)
         if (n_found /= 1) return
@@ -122,6 +113,78 @@ contains
       PetscCallA(ISDestroy(to, ierr))
     end subroutine make_permutation
   end subroutine find_motion_symmetry
+
+  !> One solved motion per orbit of the group (in_group): the first of it; the others derived from
+  !> it, source(m) = the solved motion, motion m = sign(m) Q_symmetry(m) (source(m)).
+  pure subroutine orbit_sources(in_group, source, sign, symmetry)
+    logical, intent(in) :: in_group(n_symmetries)
+    integer, intent(out) :: source(6), sign(6), symmetry(6)
+    integer :: motion, s, target, image_sign
+    source = 0
+    sign = 1
+    symmetry = 0
+    do motion = 1, 6
+      if (source(motion) /= 0) cycle
+      do s = 1, n_symmetries
+        if (.not. in_group(s)) cycle
+        call image_motion(symmetry_matrix(s), motion, target, image_sign)
+        if (target > motion .and. source(target) == 0) then
+          source(target) = motion
+          sign(target) = image_sign
+          symmetry(target) = s
+        end if
+      end do
+    end do
+  end subroutine orbit_sources
+
+  !> Collective. The Krylov solves the `requested` motions need when the motions that symmetries
+  !> of the bead set give are derived (as rigid_body_friction does: a requested derived motion
+  !> needs its source; a source left out makes its derived motions solved). Each rank checks its
+  !> share of the beads, nothing is stored: the dry run's count (job_planning.F90).
+  integer function solves_needed(comm, centres, reference_point, requested, err)
+    MPI_Comm, intent(in) :: comm
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    logical, intent(in) :: requested(6)
+    type(error_t), intent(inout) :: err
+    type(spatial_index_t) :: index
+    logical :: in_group(n_symmetries), computed(6)
+    integer :: source(6), sign(6), symmetry(6), s, rank, n_ranks, motion
+    integer(i8) :: b, n, first, last, n_found
+    integer(i8), allocatable :: found(:)
+    PetscErrorCode :: ierr
+    solves_needed = count(requested)
+    call build_spatial_index(centres, index, err)
+    if (err%failed) return
+    call MPI_Comm_rank(comm, rank, ierr)
+    call MPI_Comm_size(comm, n_ranks, ierr)
+    n = size(centres, 2, kind=i8)
+    first = 1 + (n * rank) / n_ranks
+    last = (n * (rank + 1)) / n_ranks
+    in_group = .true.
+    do s = 1, n_symmetries
+      do b = first, last
+        call beads_within(index, centres, reference_point + matmul(real(symmetry_matrix(s), dp), &
+                                                                   centres(:, b) - reference_point), &
+                          symmetry_tolerance, found, n_found)
+        if (n_found /= 1) then
+          in_group(s) = .false.
+          exit
+        end if
+      end do
+    end do
+    call MPI_Allreduce(MPI_IN_PLACE, in_group, n_symmetries, MPI_LOGICAL, MPI_LAND, comm, ierr)
+    call orbit_sources(in_group, source, sign, symmetry)
+    computed = requested
+    do motion = 1, 6
+      if (requested(motion) .and. source(motion) > 0) computed(source(motion)) = .true.
+    end do
+    do motion = 1, 6
+      if (source(motion) > 0) then
+        if (.not. computed(source(motion))) source(motion) = 0
+      end if
+    end do
+    solves_needed = count(computed .and. source == 0)
+  end function solves_needed
 
   !> Unit motion `motion` (1..3 translations, 4..6 rotations) turned by Q is sign * unit motion
   !> `target`: translations turn as vectors, rotations as pseudo-vectors (det Q).

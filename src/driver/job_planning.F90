@@ -1,0 +1,204 @@
+!> Before the friction job allocates anything large: its estimate (beadmob_job_estimate), printed
+!> by the dry run (`beadmob --estimate job.nml`, PETSc option -estimate) and compared with the
+!> memory each rank can have. A job that would not fit is refused here with one message, on every
+!> rank together, instead of failing later in an allocation or being killed by the kernel.
+!> Options: -estimate (dry run), -estimate_ranks P (the estimate for P ranks instead of the
+!> ranks of this run), -memory_limit G (GiB a rank may use; default: what the node has available,
+!> shared by the ranks on the node).
+module beadmob_job_planning
+#include "petsc/finclude/petscsys.h"
+  use petscsys
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, agree_on_error
+  use beadmob_resources, only: available_memory_bytes
+  use beadmob_block_table, only: on_unit_lattice
+  use beadmob_shell_model, only: shell_mask
+  use beadmob_multipole_basis, only: basis_size
+  use beadmob_friction_job, only: friction_settings_t, choose_operator
+  use beadmob_job_estimate, only: job_estimate_t, estimate_job
+  use beadmob_motion_symmetry, only: solves_needed
+  implicit none
+  private
+  public :: plan_friction_job, dry_run_requested
+
+  real(dp), parameter :: gib = 2.0_dp**30
+
+contains
+
+  !> Collective. The estimate of the friction job of `centres` with `settings`; with -estimate it
+  !> is printed (rank 0) and dry_run is set: the caller stops there. Otherwise a job whose peak
+  !> memory per rank exceeds the memory available to a rank is refused (err on every rank).
+  subroutine plan_friction_job(ctx, settings, centres, dry_run, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :)
+    logical, intent(out) :: dry_run
+    type(error_t), intent(inout) :: err
+    type(job_estimate_t) :: estimate
+    logical, allocatable :: keep(:)
+    logical :: on_lattice, ranks_given, limit_given
+    integer :: ranks, spans(3), i, n_solves
+    real(dp) :: centroid(3)
+    integer(i8) :: solve_beads
+    real(dp) :: limit, available, node_available
+    character(len=16) :: operator_name
+    PetscBool :: found
+    PetscInt :: ranks_option
+    PetscReal :: limit_option
+    PetscErrorCode :: ierr
+
+    dry_run = dry_run_requested()
+    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-estimate_ranks', ranks_option, found, ierr))
+    ranks_given = found
+    ranks = ctx%n_ranks
+    if (found) ranks = int(ranks_option)
+    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-memory_limit', limit_option, found, ierr))
+    limit_given = found
+    if (ranks < 1) call raise(err, '-estimate_ranks must be at least 1, got ' // str(ranks))
+    if (limit_given .and. .not. limit_option > 0.0_dp) &
+      call raise(err, '-memory_limit must be a positive number of GiB per rank, got ' // str(real(limit_option, dp)))
+    if (err%failed) return   ! the same options on every rank
+
+    ! The beads of the solve (the shell model keeps the surface layers) and their lattice spans.
+    on_lattice = on_unit_lattice(centres)
+    solve_beads = size(centres, 2, kind=i8)
+    if (settings%shell_layers > 0 .and. on_lattice) then
+      call shell_mask(centres, settings%shell_layers, keep, err)
+      if (err%failed) return   ! the same beads everywhere; friction_of_model reports it too
+      solve_beads = count(keep, kind=i8)
+    end if
+    spans = 0
+    if (on_lattice) then
+      do i = 1, 3
+        spans(i) = nint(maxval(centres(i, :)) - minval(centres(i, :)))
+      end do
+    end if
+    if (allocated(keep)) then
+      call choose_operator(settings%operator_name, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), &
+                           basis_size(settings%order, settings%potential_order), operator_name, err)
+    else
+      call choose_operator(settings%operator_name, centres, basis_size(settings%order, settings%potential_order), &
+                           operator_name, err)
+    end if
+    if (err%failed) return
+    ! Symmetries of the bead set about its centroid (the reference point) save solves.
+    n_solves = count(settings%motions)
+    if (settings%use_symmetry) then
+      centroid = sum(centres, dim=2) / size(centres, 2)
+      if (allocated(keep)) then
+        n_solves = solves_needed(ctx%comm, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), centroid, &
+                                 settings%motions, err)
+      else
+        n_solves = solves_needed(ctx%comm, centres, centroid, settings%motions, err)
+      end if
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+    end if
+    estimate = estimate_job(size(centres, 2, kind=i8), solve_beads, spans, on_lattice, settings%order, &
+                            settings%potential_order, trim(operator_name), ranks, n_solves)
+
+    ! What a rank may use: the node's available memory shared by the ranks on it (the least over
+    ! the nodes), or -memory_limit.
+    node_available = available_memory_bytes()
+    available = node_available / ctx%ranks_on_node
+    if (node_available <= 0.0_dp) available = huge(1.0_dp)   ! unknown: no refusal
+    call MPI_Allreduce(MPI_IN_PLACE, available, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
+    limit = available
+    if (limit_given) limit = limit_option * gib
+
+    if (dry_run) then
+      if (ctx%rank == 0) call print_estimate(estimate, limit, limit_given, ranks_given)
+      return
+    end if
+    if (estimate%peak > limit) &
+      call raise(err, 'the job needs about ' // gib_text(estimate%peak) // ' GiB per rank on ' // str(ranks) // &
+                 ' ranks (' // trim(breakdown(estimate)) // '), more than the ' // gib_text(limit) // &
+                 ' GiB a rank can have' // either(limit_given, ' (-memory_limit)', ' (available on this node)') // &
+                 '; refused before allocating. Use more ranks or nodes, a smaller model or a lower ' // &
+                 'multipole_order (beadmob --estimate shows the estimate)')
+    call agree_on_error(ctx, err)
+  end subroutine plan_friction_job
+
+  !> -estimate (or --estimate) is on the command line.
+  logical function dry_run_requested()
+    PetscBool :: found
+    PetscErrorCode :: ierr
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-estimate', found, ierr))
+    dry_run_requested = found
+  end function dry_run_requested
+
+  subroutine print_estimate(e, limit, limit_given, ranks_given)
+    type(job_estimate_t), intent(in) :: e
+    real(dp), intent(in) :: limit
+    logical, intent(in) :: limit_given, ranks_given
+    write (*, '(a)') 'beadmob: estimate for ' // str(e%n_ranks) // ' rank(s) (dry run: nothing built, no result file)'
+    write (*, '(a)') '  beads:                ' // str(e%n_beads) // ' (' // str(e%solve_beads) // ' in the solve)'
+    write (*, '(a)') '  unknowns:             ' // str(e%unknowns) // ' (' // str(e%unknowns_per_bead) // ' per bead)'
+    if (e%operator_name == 'fft') then
+      write (*, '(a)') '  operator:             fft, padded box ' // str(e%fft_box(1)) // ' x ' // str(e%fft_box(2)) // &
+        ' x ' // str(e%fft_box(3)) // ' (slabs of ' // str(e%fft_box(3)) // ' planes: at most ' // &
+        str(e%fft_box(2)) // ' ranks hold frequencies, more ranks do not pay)'
+    else
+      write (*, '(a)') '  operator:             ' // trim(e%operator_name)
+    end if
+    write (*, '(a)') '  canonical blocks:     ' // str(e%canonical_blocks) // ' (by quadrature)'
+    write (*, '(a)') '  memory per rank:      ' // gib_text(e%peak) // ' GiB (' // trim(breakdown(e)) // ')'
+    if (limit < huge(1.0_dp)) then
+      write (*, '(a)') '  memory a rank can have: ' // gib_text(limit) // ' GiB' // either(limit_given, ' (-memory_limit)', &
+        ' (available on this node / its ranks)') // either(e%peak <= limit, ' -> fits', ' -> does NOT fit: refused')
+      if (ranks_given) write (*, '(a)') '  (-estimate_ranks: the ranks of this dry run share the node, not those of the job)'
+    end if
+    write (*, '(a)') '  expected wall time:   ' // seconds_text(e%seconds_total) // ' (blocks ' // &
+      seconds_text(e%seconds_blocks) // ', solve ' // seconds_text(e%seconds_solve) // ': ' // str(e%n_solves) // &
+      ' solve(s) of ~' // str(e%iterations) // ' CG iterations)'
+  end subroutine print_estimate
+
+  function breakdown(e) result(text)
+    type(job_estimate_t), intent(in) :: e
+    character(len=256) :: text
+    text = 'base ' // gib_text(e%base) // ', geometry ' // gib_text(e%geometry) // ', blocks ' // gib_text(e%blocks) // &
+           ', ' // either(e%operator_name == 'fft', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
+           ', FFT buffer ' // gib_text(e%fft_buffer) // ', vectors ' // gib_text(e%vectors)
+  end function breakdown
+
+  pure function either(condition, if_true, if_false) result(text)
+    logical, intent(in) :: condition
+    character(len=*), intent(in) :: if_true, if_false
+    character(len=:), allocatable :: text
+    if (condition) then
+      text = if_true
+    else
+      text = if_false
+    end if
+  end function either
+
+  function gib_text(bytes) result(text)
+    real(dp), intent(in) :: bytes
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    if (bytes / gib < 1.0e5_dp) then
+      write (buffer, '(f0.2)') bytes / gib
+      if (buffer(1:1) == '.') buffer = '0' // buffer
+    else
+      write (buffer, '(es9.2)') bytes / gib
+    end if
+    text = trim(adjustl(buffer))
+  end function gib_text
+
+  function seconds_text(seconds) result(text)
+    real(dp), intent(in) :: seconds
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    if (seconds < 120.0_dp) then
+      write (buffer, '(f0.1, a)') seconds, ' s'
+    else if (seconds < 7200.0_dp) then
+      write (buffer, '(f0.1, a)') seconds / 60, ' min'
+    else
+      write (buffer, '(es9.2, a)') seconds / 3600, ' h'
+    end if
+    if (buffer(1:1) == '.') buffer = '0' // buffer
+    text = trim(adjustl(buffer))
+  end function seconds_text
+end module beadmob_job_planning
