@@ -18,6 +18,7 @@ module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp
   use, intrinsic :: iso_fortran_env, only: error_unit
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use hdf5, only: hid_t
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
@@ -214,8 +215,7 @@ contains
         iterations = saved(motion)%iterations
         reason = saved(motion)%converged_reason
         call true_residual(motion)
-        if (.not. (abs(stats%true_relative_residual(motion) - saved(motion)%true_relative_residual) <= &
-                   resumed_residual_tolerance * saved(motion)%true_relative_residual + 1.0e-15_dp)) then
+        if (.not. same_residual(stats%true_relative_residual(motion), saved(motion)%true_relative_residual)) then
           if (ctx%rank == 0) write (error_unit, '(a, es9.2, a, es9.2, a)') 'beadmob: warning: checkpoint ''' // &
             checkpoint_file // ''': motion ' // motion_names(motion) // ' gives the true relative residual', &
             stats%true_relative_residual(motion), ' instead of the saved', saved(motion)%true_relative_residual, &
@@ -390,6 +390,14 @@ contains
       PetscCallA(KSPDestroy(ksp, ierr))
     end subroutine release
   end subroutine rigid_body_friction
+
+  !> Whether a resumed solution's true residual is the one it was saved with (rounding aside); a
+  !> non-finite one never is (tested first: an ordered comparison with NaN would trap in Debug).
+  pure logical function same_residual(now, saved)
+    real(dp), intent(in) :: now, saved
+    same_residual = ieee_is_finite(now) .and. ieee_is_finite(saved)
+    if (same_residual) same_residual = abs(now - saved) <= resumed_residual_tolerance * saved + 1.0e-15_dp
+  end function same_residual
 
   !> A real as text that reads back to the same number (for keys).
   function real_text(value) result(text)
