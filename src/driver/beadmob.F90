@@ -84,6 +84,7 @@ contains
       '  --estimate (or -estimate)   dry run: bead count, unknowns, FFT box, memory per rank and', &
       '                              expected time of the job, nothing built (beadmob --estimate IN.nml)', &
       '  -estimate_ranks P           the estimate for P ranks (default: the ranks of the run)', &
+      '  -quiet                      no progress lines (also &run progress = .false.)', &
       '  -memory_limit G             GiB a rank may use (default: what the node has available,', &
       '                              shared by its ranks); a job estimated above it is refused', &
       '  -accuracy E (or --accuracy E)  the cheapest settings that the benchmark data say reach a', &

@@ -62,7 +62,8 @@ contains
       call raise(err, 'chain: n_beads must be positive, got ' // str(n_beads))
       return
     end if
-    allocate (centres(3, n_beads))
+    call reserve_sites([n_beads, 1, 1], 'chain', centres, err)
+    if (err%failed) return
     centres = 0.0_dp
     do i = 1, n_beads
       centres(1, i) = real(i - 1, dp)
