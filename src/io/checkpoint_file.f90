@@ -13,9 +13,9 @@
 !> writes the whole file to '<checkpoint>.tmp' and renames it over the checkpoint: a kill while
 !> writing leaves the previous checkpoint whole.
 module beadmob_checkpoint_file
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
   use hdf5, only: hid_t, h5lexists_f, h5dopen_f, h5dclose_f
   use mpi, only: MPI_Barrier, MPI_Bcast, MPI_LOGICAL
+  use beadmob_file_system, only: rename_file, remove_file
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -49,17 +49,6 @@ module beadmob_checkpoint_file
     character(len=:), allocatable :: path, temporary
     integer(hid_t) :: file_id = -1
   end type checkpoint_writer_t
-
-  interface
-    integer(c_int) function c_rename(old_path, new_path) bind(c, name='rename')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: old_path(*), new_path(*)
-    end function c_rename
-    integer(c_int) function c_unlink(path) bind(c, name='unlink')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: path(*)
-    end function c_unlink
-  end interface
 
   !> FNV-1a, 64 bits: offset basis and prime, split in 32-bit halves so that every product fits
   !> an integer(i8) without overflow (Fortran integers do not wrap by definition).
@@ -129,10 +118,10 @@ contains
     call MPI_Barrier(ctx%comm, ierr)
     if (ctx%rank == 0) then
       if (err%failed) then
-        ierr = c_unlink(writer%temporary // c_null_char)
-      else if (c_rename(writer%temporary // c_null_char, writer%path // c_null_char) /= 0) then
+        call remove_file(writer%temporary)
+      else if (.not. rename_file(writer%temporary, writer%path)) then
         call raise(err, "cannot rename '" // writer%temporary // "' to '" // writer%path // "'")
-        ierr = c_unlink(writer%temporary // c_null_char)
+        call remove_file(writer%temporary)
       end if
     end if
     call agree_on_error(ctx, err)
@@ -223,9 +212,8 @@ contains
   !> files are no error: the run's results are in the result file by now.
   subroutine remove_checkpoint(path)
     character(len=*), intent(in) :: path
-    integer(c_int) :: status
-    status = c_unlink(path // c_null_char)
-    status = c_unlink(path // temporary_suffix // c_null_char)
+    call remove_file(path)
+    call remove_file(path // temporary_suffix)
   end subroutine remove_checkpoint
 
   !> 64-bit FNV-1a hash of a text, as 16 hexadecimal digits.

@@ -46,11 +46,7 @@ contains
     type(error_t), intent(inout) :: err
     integer(hid_t) :: access
     integer :: status
-    call h5open_f(status)
-    call check(status, 'initialise', err)
-    call h5pcreate_f(H5P_FILE_ACCESS_F, access, status)
-    call h5pset_fapl_mpio_f(access, ctx%comm, MPI_INFO_NULL, status)
-    call check(status, 'set the MPI-IO file driver', err)
+    call mpio_access(ctx, access, err)
     call h5fcreate_f(path, H5F_ACC_TRUNC_F, file_id, status, access_prp=access)
     call check(status, "create '" // path // "'", err)
     call h5pclose_f(access, status)
@@ -64,11 +60,7 @@ contains
     type(error_t), intent(inout) :: err
     integer(hid_t) :: access
     integer :: status
-    call h5open_f(status)
-    call check(status, 'initialise', err)
-    call h5pcreate_f(H5P_FILE_ACCESS_F, access, status)
-    call h5pset_fapl_mpio_f(access, ctx%comm, MPI_INFO_NULL, status)
-    call check(status, 'set the MPI-IO file driver', err)
+    call mpio_access(ctx, access, err)
     call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, status, access_prp=access)
     if (status < 0) then
       file_id = -1
@@ -76,6 +68,20 @@ contains
     end if
     call h5pclose_f(access, status)
   end subroutine h5_open_parallel_readonly
+
+  !> HDF5 initialised and a file-access property list with the MPI-IO driver on the run's
+  !> communicator (the caller closes it).
+  subroutine mpio_access(ctx, access, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(out) :: access
+    type(error_t), intent(inout) :: err
+    integer :: status
+    call h5open_f(status)
+    call check(status, 'initialise', err)
+    call h5pcreate_f(H5P_FILE_ACCESS_F, access, status)
+    call h5pset_fapl_mpio_f(access, ctx%comm, MPI_INFO_NULL, status)
+    call check(status, 'set the MPI-IO file driver', err)
+  end subroutine mpio_access
 
   subroutine h5_close_file(file_id, err)
     integer(hid_t), intent(in) :: file_id

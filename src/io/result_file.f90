@@ -2,9 +2,9 @@
 !> parallel HDF5 to '<output>.partial' and renamed to '<output>' only when complete, so a
 !> failed run never leaves a half-written result under the requested name.
 module beadmob_result_file
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
   use hdf5, only: hid_t
   use mpi, only: MPI_Barrier
+  use beadmob_file_system, only: rename_file, remove_file
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -27,17 +27,6 @@ module beadmob_result_file
   character(len=*), parameter :: result_format = 'beadmob-result'
   integer, parameter :: result_format_version = 1
   character(len=*), parameter :: partial_suffix = '.partial'
-
-  interface
-    integer(c_int) function c_rename(old_path, new_path) bind(c, name='rename')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: old_path(*), new_path(*)
-    end function c_rename
-    integer(c_int) function c_unlink(path) bind(c, name='unlink')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: path(*)
-    end function c_unlink
-  end interface
 
 contains
 
@@ -69,10 +58,10 @@ contains
     call MPI_Barrier(ctx%comm, ierr)
     if (ctx%rank == 0) then
       if (err%failed) then
-        ierr = c_unlink(partial_path // c_null_char)
-      else if (c_rename(partial_path // c_null_char, final_path // c_null_char) /= 0) then
+        call remove_file(partial_path)
+      else if (.not. rename_file(partial_path, final_path)) then
         call raise(err, "cannot rename '" // partial_path // "' to '" // final_path // "'")
-        ierr = c_unlink(partial_path // c_null_char)
+        call remove_file(partial_path)
       end if
     end if
     call agree_on_error(ctx, err)

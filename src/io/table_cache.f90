@@ -13,10 +13,11 @@
 !> file in the same directory and renamed over the cache: readers see the old or the new file,
 !> never a half-written one (of two runs updating at once, the last rename wins).
 module beadmob_table_cache
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_int
   use, intrinsic :: iso_fortran_env, only: error_unit
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use hdf5
+  use beadmob_file_system, only: rename_file, remove_file
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -39,14 +40,6 @@ module beadmob_table_cache
   end type cache_key_t
 
   interface
-    integer(c_int) function c_rename(old_path, new_path) bind(c, name='rename')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: old_path(*), new_path(*)
-    end function c_rename
-    integer(c_int) function c_unlink(path) bind(c, name='unlink')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: path(*)
-    end function c_unlink
     integer(c_int) function c_getpid() bind(c, name='getpid')
       import :: c_int
     end function c_getpid
@@ -465,9 +458,9 @@ contains
       call check(status, "close '" // temporary // "'", err)
     end if
     if (.not. err%failed) then
-      if (c_rename(temporary // c_null_char, path // c_null_char) /= 0) &
+      if (.not. rename_file(temporary, path)) &
         call raise(err, "cannot rename '" // temporary // "' to '" // path // "'")
     end if
-    if (err%failed) status = c_unlink(temporary // c_null_char)
+    if (err%failed) call remove_file(temporary)
   end subroutine finish_update
 end module beadmob_table_cache

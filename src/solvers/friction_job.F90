@@ -269,15 +269,8 @@ contains
                              settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
                              symmetry, settings%motions, control, err)
     if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
+    call release_operator()
     if (err%failed) then   ! the test stop: the same solve count on every rank
-      if (.not. allocated(bead_blocks)) then
-        PetscCallA(MatDestroy(near_field, ierr))
-      end if
-      if (result%operator_name == 'fft') then
-        call destroy_fft_operator(fft_op, matrix)
-      else
-        call destroy_bead_operator(direct_op, matrix)
-      end if
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
@@ -285,14 +278,6 @@ contains
       where (result%solves%source < 0 .and. result%solves%source(phase) < 0) &
         result%multipole_friction(:, phase) = ieee_value(1.0_dp, ieee_quiet_nan)
     end do
-    if (.not. allocated(bead_blocks)) then
-      PetscCallA(MatDestroy(near_field, ierr))
-    end if
-    if (result%operator_name == 'fft') then
-      call destroy_fft_operator(fft_op, matrix)
-    else
-      call destroy_bead_operator(direct_op, matrix)
-    end if
     call mark(3)
 
     result%friction = result%multipole_friction
@@ -322,6 +307,18 @@ contains
                        MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
+
+    !> The operator and, when assembled, the near-field matrix.
+    subroutine release_operator()
+      if (.not. allocated(bead_blocks)) then
+        PetscCallA(MatDestroy(near_field, ierr))
+      end if
+      if (result%operator_name == 'fft') then
+        call destroy_fft_operator(fft_op, matrix)
+      else
+        call destroy_bead_operator(direct_op, matrix)
+      end if
+    end subroutine release_operator
 
     !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
     subroutine mark(phase)
