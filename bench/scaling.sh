@@ -7,6 +7,7 @@
 # an earlier commit) the 1e5 sphere is run PAIRS times side by side, new and previous in turn.
 # One run per row otherwise (the large runs take minutes). Writes bench/scaling.csv, .md, .png.
 # Needs a Release build (scripts/build.sh). SCALING_RADII overrides the 2-rank sphere radii.
+# ESTIMATES_ONLY=1 redoes only the dry runs of the kept runs (after a change of the estimate).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 source "$root/scripts/mpi-env.sh"
@@ -20,6 +21,7 @@ run() {  # run <tag> <ranks> <shape group> [executable]
   if [ "$program" = "$exe" ]; then
     (cd "$work" && mpirun -n "$2" "$program" --estimate "$1.nml" > "$1.estimate" 2>&1)
   fi
+  [ -n "${ESTIMATES_ONLY:-}" ] && return
   (cd "$work" && /usr/bin/time -f "%e" -o "$1.wall" mpirun -n "$2" "$program" "$1.nml" -quiet > "$1.log" 2>&1)
   echo "scaling: $1 done ($(cat "$work/$1.wall") s)"
 }
@@ -28,14 +30,14 @@ cone="&shape name = 'cone', base_diameter = 20, height = 47 /"
 run sphere_r28.8_np2 2 "$(sphere 28.8)"
 run sphere_r28.8_np1 1 "$(sphere 28.8)"
 run sphere_r28.8_np4 4 "$(sphere 28.8)"
-if [ -n "${PREV_EXE:-}" ]; then
+if [ -n "${PREV_EXE:-}" ] && [ -z "${ESTIMATES_ONLY:-}" ]; then
   for k in $(seq 1 "${PAIRS:-3}"); do
     run "pair${k}_new_sphere_r28.8_np2" 2 "$(sphere 28.8)"
     run "pair${k}_previous_sphere_r28.8_np2" 2 "$(sphere 28.8)" "$PREV_EXE"
   done
 fi
 for r in $radii; do
-  [ -f "$work/sphere_r${r}_np2.h5" ] || run "sphere_r${r}_np2" 2 "$(sphere "$r")"
+  [ -f "$work/sphere_r${r}_np2.h5" ] && [ -z "${ESTIMATES_ONLY:-}" ] || run "sphere_r${r}_np2" 2 "$(sphere "$r")"
 done
 run cone_np1 1 "$cone"
 run cone_np2 2 "$cone"

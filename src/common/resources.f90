@@ -6,7 +6,7 @@ module beadmob_resources
   use beadmob_kinds, only: dp
   implicit none
   private
-  public :: peak_resident_bytes, available_memory_bytes
+  public :: peak_resident_bytes, available_memory_bytes, online_processors
 
   type, bind(c) :: c_timeval
     integer(c_long) :: seconds, microseconds
@@ -19,6 +19,10 @@ module beadmob_resources
   end type c_rusage
 
   interface
+    integer(c_long) function c_sysconf(name) bind(c, name='sysconf')
+      import :: c_int, c_long
+      integer(c_int), value :: name
+    end function c_sysconf
     integer(c_int) function c_getrusage(who, usage) bind(c, name='getrusage')
       import :: c_int, c_rusage
       integer(c_int), value :: who
@@ -35,6 +39,12 @@ contains
     peak_resident_bytes = 0.0_dp
     if (c_getrusage(rusage_self, usage) == 0) peak_resident_bytes = real(usage%maxrss, dp) * 1024.0_dp
   end function peak_resident_bytes
+
+  !> Processors online on this node (sysconf _SC_NPROCESSORS_ONLN, 84 on Linux; 1 if unknown).
+  integer function online_processors()
+    integer(c_int), parameter :: processors_online = 84
+    online_processors = max(1, int(c_sysconf(processors_online)))
+  end function online_processors
 
   !> Bytes of memory this node can still give (0 if unknown): MemAvailable, and when a cgroup
   !> limits the job (Slurm, containers) the limit less the group's current use, if smaller.

@@ -12,7 +12,7 @@ module beadmob_job_planning
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error
-  use beadmob_resources, only: available_memory_bytes
+  use beadmob_resources, only: available_memory_bytes, online_processors
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_shell_model, only: shell_mask
   use beadmob_multipole_basis, only: basis_size
@@ -42,7 +42,7 @@ contains
     integer :: ranks, spans(3), i, n_solves
     real(dp) :: centroid(3)
     integer(i8) :: solve_beads
-    real(dp) :: limit, available, node_available
+    real(dp) :: limit, available, node_available, oversubscription
     character(len=16) :: operator_name
     PetscBool :: found
     PetscInt :: ranks_option
@@ -96,8 +96,14 @@ contains
       call agree_on_error(ctx, err)
       if (err%failed) return
     end if
+    ! More ranks than processors on a node share them: the times grow by that factor (the largest
+    ! over the nodes). An estimate for -estimate_ranks assumes a processor per rank.
+    oversubscription = real(ctx%ranks_on_node, dp) / online_processors()
+    call MPI_Allreduce(MPI_IN_PLACE, oversubscription, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    if (ranks_given) oversubscription = 1.0_dp
     estimate = estimate_job(size(centres, 2, kind=i8), solve_beads, spans, on_lattice, settings%order, &
-                            settings%potential_order, trim(operator_name), ranks, n_solves)
+                            settings%potential_order, trim(operator_name), ranks, n_solves, &
+                            settings%shell_layers > 0 .and. on_lattice, oversubscription)
 
     ! What a rank may use: the node's available memory shared by the ranks on it (the least over
     ! the nodes), or -memory_limit.
@@ -160,7 +166,8 @@ contains
     character(len=256) :: text
     text = 'base ' // gib_text(e%base) // ', geometry ' // gib_text(e%geometry) // ', blocks ' // gib_text(e%blocks) // &
            ', ' // either(e%operator_name == 'fft', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
-           ', FFT buffer ' // gib_text(e%fft_buffer) // ', vectors ' // gib_text(e%vectors)
+           ', FFT buffer ' // gib_text(e%fft_buffer) // ', transposes ' // gib_text(e%transposes) // &
+           ', vectors ' // gib_text(e%vectors)
   end function breakdown
 
   pure function either(condition, if_true, if_false) result(text)

@@ -4,7 +4,7 @@
 !> refuses, before allocating, a job that cannot fit (docs/scaling.md, "Know before you run").
 !>
 !> Memory per rank, largest rank (docs/scaling.md lists what each term holds):
-!>   base + geometry N + max(canonical + kernel + buffer, kernel + buffer + vectors)  (FFT operator)
+!>   base + geometry N + kernel + buffer + transposes + max(canonical, vectors)       (FFT operator)
 !>   base + geometry N + canonical + expanded box table + vectors                     (direct, lattice)
 !>   base + geometry N + N n_local nb^2 8 B + vectors                                 (direct, off-lattice)
 !> with the FFT sizes of FFTW's slab decomposition (ceil(n/P) planes on the largest rank). Time:
@@ -21,7 +21,7 @@ module beadmob_job_estimate
   public :: job_estimate_t, estimate_job, fft_box_of_spans
 
   ! Memory constants (bytes), fitted to the peak resident sets of bench/scaling.md.
-  real(dp), parameter :: base_bytes = 80.0e6_dp          ! MPI, PETSc, HDF5, FFTW and the program itself
+  real(dp), parameter :: base_bytes = 45.0e6_dp          ! MPI, PETSc, HDF5, FFTW and the program itself
   real(dp), parameter :: geometry_bytes_per_bead = 120.0_dp   ! replicated positions, lattice, indexes
   real(dp), parameter :: vectors_per_unknown = 26.0_dp   ! 18 motion vectors + Krylov work + scatters
   ! Rates (seconds) measured on the development machine (one core per rank).
@@ -30,7 +30,13 @@ module beadmob_job_estimate
   real(dp), parameter :: fft_seconds = 0.75e-9_dp       ! per field, per site and log2(sites), one transform
   real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
   real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product
-  real(dp), parameter :: iteration_factor = 5.2_dp, iteration_power = 0.17_dp   ! CG iterations a N^p
+  ! Largest CG iteration count of the solves, a N_solve^p: the full model (bench/scaling.md before
+  ! the shell default: 18 at 1e3 to 37 at 1e5 beads) and the one-layer shell (11 at 354 beads in
+  ! the solve to 18 at 4e4).
+  real(dp), parameter :: full_iterations(2) = [5.2_dp, 0.17_dp], shell_iterations(2) = [6.0_dp, 0.104_dp]
+  !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
+  !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling.md).
+  real(dp), parameter :: transpose_fraction = 0.5_dp
 
   type :: job_estimate_t
     integer(i8) :: n_beads = 0, solve_beads = 0, unknowns = 0
@@ -39,7 +45,7 @@ module beadmob_job_estimate
     integer :: fft_box(3) = 0                 ! padded box (slow axis last); 0 for the direct operator
     integer(i8) :: canonical_blocks = 0       ! blocks by quadrature (lattice models)
     !> Per rank, largest rank (bytes)
-    real(dp) :: base = 0, geometry = 0, blocks = 0, kernel = 0, fft_buffer = 0, vectors = 0, peak = 0
+    real(dp) :: base = 0, geometry = 0, blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, vectors = 0, peak = 0
     real(dp) :: seconds_blocks = 0, seconds_solve = 0, seconds_total = 0
   end type job_estimate_t
 
@@ -60,10 +66,14 @@ contains
   !> their lattice spans (max - min of the integer coordinates; ignored off the lattice);
   !> operator_name: 'fft' or 'direct' as chosen for the job; n_solves: Krylov solves (6, fewer
   !> with motions or symmetries).
+  !> shell: a shell model (fewer CG iterations); oversubscription: ranks per processor on the
+  !> busiest node (>= 1), which the times scale by.
   pure function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                             n_ranks, n_solves) result(e)
+                             n_ranks, n_solves, shell, oversubscription) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
+    logical, intent(in) :: shell
+    real(dp), intent(in) :: oversubscription
     logical, intent(in) :: on_lattice
     character(len=*), intent(in) :: operator_name
     type(job_estimate_t) :: e
@@ -87,7 +97,11 @@ contains
     e%base = base_bytes
     e%geometry = geometry_bytes_per_bead * n_beads
     e%vectors = vectors_per_unknown * 8 * local_beads * nb
-    e%iterations = ceiling(iteration_factor * real(max(solve_beads, 1_i8), dp)**iteration_power)
+    if (shell) then
+      e%iterations = ceiling(shell_iterations(1) * real(max(solve_beads, 1_i8), dp)**shell_iterations(2))
+    else
+      e%iterations = ceiling(full_iterations(1) * real(max(solve_beads, 1_i8), dp)**full_iterations(2))
+    end if
     products = real(n_solves, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
 
     if (on_lattice) then
@@ -108,7 +122,8 @@ contains
       frequencies = freq_planes * e%fft_box(3) * (e%fft_box(1) / 2 + 1)
       e%kernel = 8 * packed * frequencies
       e%fft_buffer = 16 * nb * max(frequencies, real_planes * e%fft_box(2) * (e%fft_box(1) / 2 + 1))
-      e%peak = e%base + e%geometry + e%kernel + e%fft_buffer + max(e%blocks, e%vectors)
+      if (e%n_ranks > 1) e%transposes = transpose_fraction * e%fft_buffer
+      e%peak = e%base + e%geometry + e%kernel + e%fft_buffer + e%transposes + max(e%blocks, e%vectors)
       widths = 2 * spans + 1
       e%seconds_blocks = quadrature * e%canonical_blocks / e%n_ranks &
                          + fill_seconds * packed * product(real(widths, dp)) / e%n_ranks &
@@ -127,7 +142,8 @@ contains
       e%peak = e%base + e%geometry + e%blocks + e%kernel + e%vectors
       product_seconds = direct_seconds * nb**2 * real(solve_beads, dp) * local_beads
     end if
-    e%seconds_solve = products * product_seconds
+    e%seconds_blocks = e%seconds_blocks * max(oversubscription, 1.0_dp)
+    e%seconds_solve = products * product_seconds * max(oversubscription, 1.0_dp)
     e%seconds_total = e%seconds_blocks + e%seconds_solve
   end function estimate_job
 
