@@ -228,6 +228,7 @@ contains
     end if
 
     call make_slab_scatter(comm, op, err)
+    if (allocated(op%table%lattice)) deallocate (op%table%lattice)   ! the scatter holds the sites now
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) then
