@@ -38,8 +38,8 @@ def read(path):
 
 
 rows = [read(p) for p in sorted(run_dir.glob("*.h5"))]
-pairs = [r for r in rows if r["tag"].startswith("pair")]
-rows = [r for r in rows if not r["tag"].startswith("pair")]
+pairs = [r for r in rows if r["tag"].startswith(("pair", "fullpair"))]
+rows = [r for r in rows if not r["tag"].startswith(("pair", "fullpair"))]
 rows.sort(key=lambda r: (r["tag"].split("_")[0], r["n"], r["ranks"]))
 with open(out_dir / "scaling.csv", "w") as out:
     out.write("tag,n_beads,solve_beads,ranks,operator,blocks_s,solve_s,total_s,peak_after_blocks_gib,"
@@ -109,12 +109,15 @@ for base, group in groups.items():
         lines.append(f"| {base} | {r['n']} | {r['ranks']} | {s['blocks']:.1f} | {s['solve']:.1f} | {s['total']:.1f} | "
                      f"{r['memory']:.2f} | {speed} |")
 
-if pairs:
-    new = [r for r in pairs if "_new_" in r["tag"]]
-    old = [r for r in pairs if "_previous_" in r["tag"]]
-    ratio = [a["wall"] / b["wall"] for a, b in zip(sorted(new, key=lambda r: r["tag"]), sorted(old, key=lambda r: r["tag"]))]
-    lines += ["", f"## Side by side with the previous build ({new[0]['n']}-bead sphere, 2 ranks)", "",
-              f"{len(ratio)} pairs, new and previous in turn (whole run: wall time of mpirun, friction job per phase, "
+for prefix, what in (("pair", "default settings"), ("fullpair", "full model: every bead in the solve, all six motions solved")):
+    group_pairs = [r for r in pairs if r["tag"].split("_")[0].rstrip("0123456789") == prefix]
+    new = sorted([r for r in group_pairs if "_new_" in r["tag"]], key=lambda r: r["tag"])
+    old = sorted([r for r in group_pairs if "_previous_" in r["tag"]], key=lambda r: r["tag"])
+    if not new or len(new) != len(old):
+        continue
+    ratio = [a["wall"] / b["wall"] for a, b in zip(new, old)]
+    lines += ["", f"## Side by side with the previous build ({new[0]['n']}-bead sphere, 2 ranks, {what})", "",
+              f"{len(ratio)} pair(s), new and previous in turn (whole run: wall time of mpirun, friction job per phase, "
               "peak memory of the largest rank); medians.", "",
               "| build | wall (s) | blocks (s) | solve (s) | total friction job (s) | peak memory per rank (GiB) |",
               "|---|---|---|---|---|---|"]
