@@ -6,7 +6,7 @@
 #
 # The dry run (`beadmob --estimate JOB.nml -estimate_ranks RANKS`, run here on one rank: it builds
 # only the bead model) gives the memory per rank and the expected wall time; the script asks for
-# 25 % more memory per rank (--mem-per-cpu, one rank per CPU) and twice the expected time (at least
+# 25 % more memory per rank (--mem-per-cpu, one rank per CPU, at least 256 MiB) and twice the expected time (at least
 # 15 minutes). A job killed at the time limit loses nothing: each solved motion is in the
 # checkpoint (<output>.checkpoint.h5) and `sbatch OUT.slurm` again resumes from it.
 # BEADMOB (default: build/beadmob next to this script) names the executable; ACCOUNT, PARTITION
@@ -32,7 +32,7 @@ read -r mem_mib minutes < <(python3 - "$gib" $time_text <<'PY'
 import math, sys
 gib, value, unit = float(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
 seconds = value * {"s": 1, "min": 60, "h": 3600}[unit]
-print(math.ceil(1.25 * gib * 1024), max(15, math.ceil(2 * seconds / 60)))
+print(max(256, math.ceil(1.25 * gib * 1024)), max(15, math.ceil(2 * seconds / 60)))
 PY
 )
 if [ -n "$box" ] && [ "$ranks" -gt "$box" ]; then
