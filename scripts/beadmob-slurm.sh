@@ -6,8 +6,8 @@
 #
 # The dry run (`beadmob --estimate JOB.nml -estimate_ranks RANKS`, run here on one rank: it builds
 # only the bead model) gives the memory per rank and the expected wall time; the script asks for
-# 25 % more memory per rank (--mem-per-cpu, one rank per CPU, at least 256 MiB) and twice the expected time (at least
-# 15 minutes). A job killed at the time limit loses nothing: each solved motion is in the
+# 25 % more memory per rank (--mem-per-cpu, one rank per CPU, at least 256 MiB) and twice the
+# expected time (at least 15 minutes). A job killed at the time limit loses nothing: each solved motion is in the
 # checkpoint (<output>.checkpoint.h5) and `sbatch OUT.slurm` again resumes from it.
 # BEADMOB (default: build/beadmob next to this script) names the executable; ACCOUNT, PARTITION
 # and MODULES (e.g. "petsc hdf5 fftw") are passed through when set.
