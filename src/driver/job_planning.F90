@@ -40,7 +40,6 @@ contains
     logical, allocatable :: keep(:)
     logical :: on_lattice, ranks_given, limit_given
     integer :: ranks, spans(3), i, n_solves
-    real(dp) :: centroid(3)
     integer(i8) :: solve_beads
     real(dp) :: limit, available, node_available, oversubscription
     character(len=16) :: operator_name
@@ -61,41 +60,23 @@ contains
       call raise(err, '-memory_limit must be a positive number of GiB per rank, got ' // str(real(limit_option, dp)))
     if (err%failed) return   ! the same options on every rank
 
-    ! The beads of the solve (the shell model keeps the surface layers) and their lattice spans.
+    ! The beads of the solve (the shell model keeps the surface layers; the same spans) and their
+    ! lattice spans.
     on_lattice = on_unit_lattice(centres)
-    solve_beads = size(centres, 2, kind=i8)
-    if (settings%shell_layers > 0 .and. on_lattice) then
-      call shell_mask(centres, settings%shell_layers, keep, err)
-      if (err%failed) return   ! the same beads everywhere; friction_of_model reports it too
-      solve_beads = count(keep, kind=i8)
-    end if
     spans = 0
     if (on_lattice) then
       do i = 1, 3
         spans(i) = nint(maxval(centres(i, :)) - minval(centres(i, :)))
       end do
     end if
-    if (allocated(keep)) then
-      call choose_operator(settings%operator_name, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), &
-                           basis_size(settings%order, settings%potential_order), operator_name, err)
+    if (settings%shell_layers > 0 .and. on_lattice) then
+      call shell_mask(centres, settings%shell_layers, keep, err)
+      if (err%failed) return   ! the same beads everywhere; friction_of_model reports it too
+      call describe_solve(centres(:, pack([(i, i = 1, size(centres, 2))], keep)))
     else
-      call choose_operator(settings%operator_name, centres, basis_size(settings%order, settings%potential_order), &
-                           operator_name, err)
+      call describe_solve(centres)
     end if
-    if (err%failed) return
-    ! Symmetries of the bead set about its centroid (the reference point) save solves.
-    n_solves = count(settings%motions)
-    if (settings%use_symmetry) then
-      centroid = sum(centres, dim=2) / size(centres, 2)
-      if (allocated(keep)) then
-        n_solves = solves_needed(ctx%comm, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), centroid, &
-                                 settings%motions, err)
-      else
-        n_solves = solves_needed(ctx%comm, centres, centroid, settings%motions, err)
-      end if
-      call agree_on_error(ctx, err)
-      if (err%failed) return
-    end if
+    if (err%failed) return   ! agreed on in describe_solve
     ! More ranks than processors on a node share them: the times grow by that factor (the largest
     ! over the nodes). An estimate for -estimate_ranks assumes a processor per rank.
     oversubscription = real(ctx%ranks_on_node, dp) / online_processors()
@@ -125,6 +106,26 @@ contains
                  '; refused before allocating. Use more ranks or nodes, a smaller model or a lower ' // &
                  'multipole_order (beadmob --estimate shows the estimate)')
     call agree_on_error(ctx, err)
+
+  contains
+
+    !> solve_beads, the operator the job gets and, for the dry run only (a normal run's memory does
+    !> not depend on it, and the run finds the symmetries itself), the solves its symmetries leave.
+    subroutine describe_solve(solve_centres)
+      real(dp), intent(in) :: solve_centres(:, :)
+      real(dp) :: centroid(3)
+      solve_beads = size(solve_centres, 2, kind=i8)
+      call choose_operator(settings%operator_name, solve_centres, basis_size(settings%order, settings%potential_order), &
+                           operator_name, err)
+      if (err%failed) return   ! the same options and beads everywhere
+      n_solves = count(settings%motions)
+      if (dry_run .and. settings%use_symmetry) then
+        ! About the centroid of all beads: the reference point of the job.
+        centroid = sum(centres, dim=2) / size(centres, 2)
+        n_solves = solves_needed(ctx%comm, solve_centres, centroid, settings%motions, err)
+        call agree_on_error(ctx, err)
+      end if
+    end subroutine describe_solve
   end subroutine plan_friction_job
 
   !> -estimate (or --estimate) is on the command line.
