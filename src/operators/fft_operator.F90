@@ -38,6 +38,7 @@ module beadmob_fft_operator
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
@@ -190,7 +191,9 @@ contains
   !> Collective. `op` must stay in place (not be moved or copied) while `matrix` lives: PETSc
   !> keeps its address. Set op%measure_plans before the call to choose the FFTW planner. On error
   !> (err set on some rank) no matrix is created; calling destroy_fft_operator then is harmless.
-  subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err)
+  !> report (default false; true on rank 0 only): progress lines of the set-up, which takes
+  !> minutes for a million beads (the blocks, then each batch of kernel entries).
+  subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
@@ -198,10 +201,16 @@ contains
     type(fft_operator_t), target, intent(inout) :: op
     Mat, intent(out) :: matrix
     type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: report
     PetscErrorCode :: ierr
     PetscInt :: local_size, global_size
     integer :: failed_here, failed_anywhere
+    logical :: reporting
+    real(dp) :: start
 
+    reporting = .false.
+    if (present(report)) reporting = report
+    start = MPI_Wtime()
     op%block_size = basis%size
     op%n_beads = size(centres, 2, kind=i8)
     op%first_bead = first_bead
@@ -214,10 +223,13 @@ contains
     ! Compact table: each rank forms the blocks of its own FFT slab from the canonical ones
     ! (transform_kernel), so nothing of the size of the displacement box is held on any rank.
     if (.not. err%failed) call make_block_table(comm, basis, centres, first_bead, n_local, op%table, err, expand=.false.)
+    if (.not. err%failed) call progress_line(reporting, 'blocks: ' // str(op%table%computed_blocks) // &
+                                             ' canonical blocks computed, ' // str(op%table%cached_blocks) // &
+                                             ' read from the cache (' // progress_seconds(MPI_Wtime() - start) // ' s)')
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
     if (.not. err%failed) call plan_transforms(comm, op, err)
-    if (.not. err%failed) call transform_kernel(op, err)
+    if (.not. err%failed) call transform_kernel(op, err, reporting, start)
     call free_canonical_blocks(op%table)   ! the kernel holds them now
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
@@ -447,10 +459,12 @@ contains
   !> operator's own plan (no extra plan; the transient memory is the one buffer). Each rank forms
   !> the entries of its own slab's sites from the compact block table (lattice_block_entries),
   !> so the real-space kernel is never held whole on any rank.
-  subroutine transform_kernel(op, err)
+  subroutine transform_kernel(op, err, reporting, start)
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
-    integer :: nb, n_packed, batch, c, e, i, j, k, s, t, d(3), first, last, stat
+    logical, intent(in) :: reporting   ! a progress line per batch (rank 0)
+    real(dp), intent(in) :: start      ! MPI_Wtime of the set-up's start
+    integer :: nb, n_packed, batch, n_batches, c, e, i, j, k, s, t, d(3), first, last, stat
     integer, allocatable :: row(:), column(:), unknown(:)
     logical, allocatable :: odd(:)
     integer(i8) :: site, f
@@ -482,7 +496,8 @@ contains
     ! The 1/M of the inverse transform, folded into the kernel once.
     scale = 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3))
 
-    do batch = 0, (n_packed - 1) / nb
+    n_batches = (n_packed - 1) / nb + 1
+    do batch = 0, n_batches - 1
       op%real_data = 0.0_dp
       do k = 0, int(op%slab_planes) - 1
         do j = 0, op%box(2) - 1
@@ -510,6 +525,10 @@ contains
           end if
         end do
       end do
+      ! About every quarter of the batches.
+      call progress_line(reporting .and. (4 * (batch + 1)) / n_batches /= (4 * batch) / n_batches, &
+                         'FFT kernel: ' // str(min(batch * nb + nb, n_packed)) // ' of ' // &
+                         str(n_packed) // ' entries transformed (' // progress_seconds(MPI_Wtime() - start) // ' s)')
     end do
 
   contains

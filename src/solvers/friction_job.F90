@@ -19,7 +19,7 @@ module beadmob_friction_job
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_shell_model, only: shell_mask
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t, solve_control_t
-  use beadmob_progress, only: progress_line
+  use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
@@ -201,7 +201,7 @@ contains
     if (result%operator_name == 'fft') then
       fft_op%table%cache_file = trim(settings%cache_file)   ! read by make_block_table
       fft_op%measure_plans = settings%fft_planner == 'measure'
-      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err)
+      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err, report)
       call agree_on_error(ctx, err)
       if (err%failed) then
         call destroy_fft_operator(fft_op, matrix)
@@ -329,7 +329,7 @@ contains
       if (phase < size(stages)) then
         PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
         call progress_line(report, 'phase ' // trim(phase_names(phase + 1)) // ' (' // &
-                           fixed_seconds(MPI_Wtime() - start) // ' s into the friction job)')
+                           progress_seconds(MPI_Wtime() - start) // ' s into the friction job)')
       end if
     end subroutine mark
   end subroutine friction_of_beads
@@ -355,16 +355,6 @@ contains
           'near field: radius ' // str(settings%near_field_radius) // ', cluster ' // &
           str(settings%near_field_cluster) // nl
   end function checkpoint_key
-
-  !> Seconds with one decimal (progress lines).
-  function fixed_seconds(seconds) result(text)
-    real(dp), intent(in) :: seconds
-    character(len=:), allocatable :: text
-    character(len=24) :: buffer
-    write (buffer, '(f0.1)') max(seconds, 0.0_dp)
-    text = trim(buffer)
-    if (text(1:1) == '.') text = '0' // text
-  end function fixed_seconds
 
   !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
   !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C

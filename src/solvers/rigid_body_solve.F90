@@ -27,7 +27,7 @@ module beadmob_rigid_body_solve
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
-  use beadmob_progress, only: progress_line
+  use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: saved_solve_t, checkpoint_writer_t, begin_checkpoint, write_checkpoint_motion, &
                                      commit_checkpoint, open_checkpoint, read_checkpoint_motion, close_checkpoint, &
                                      fnv1a_hex, checkpoint_matches, checkpoint_other_key
@@ -239,9 +239,9 @@ contains
         solves_done = solves_done + 1
         solve_seconds = solve_seconds + (MPI_Wtime() - started)
         call progress_line(report, 'solve ' // motion_names(motion) // ': ' // str(int(iterations)) // &
-                           ' iterations, ' // seconds_text(MPI_Wtime() - started) // ' s; ' // &
+                           ' iterations, ' // progress_seconds(MPI_Wtime() - started) // ' s; ' // &
                            str(solves_planned - solves_done) // ' solves left, ~' // &
-                           seconds_text(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
+                           progress_seconds(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
         if (present(control) .and. present(err)) then
           if (solves_done == control%stop_after_solves) then
             ! Every rank counts the same solves: they all stop here together.
@@ -407,20 +407,6 @@ contains
     write (buffer, '(es24.16e3)') value
     text = trim(adjustl(buffer))
   end function real_text
-
-  !> Seconds for progress lines: two decimals below 100 s, whole seconds above.
-  function seconds_text(seconds) result(text)
-    real(dp), intent(in) :: seconds
-    character(len=:), allocatable :: text
-    character(len=24) :: buffer
-    if (seconds < 100.0_dp) then
-      write (buffer, '(f0.2)') max(seconds, 0.0_dp)
-    else
-      write (buffer, '(i0)') nint(seconds)
-    end if
-    text = trim(buffer)
-    if (text(1:1) == '.') text = '0' // text
-  end function seconds_text
 
   pure function rigid_velocity(motion, arm) result(velocity)
     integer, intent(in) :: motion
