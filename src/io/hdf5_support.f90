@@ -288,24 +288,15 @@ contains
     integer(i8), intent(in) :: first, n_total
     type(error_t), intent(inout) :: err
     integer(hid_t) :: file_space, memory_space, dataset, transfer
-    integer(hsize_t) :: file_dims(2), block_dims(2), offset(2)
+    integer(hsize_t) :: file_dims(2), block_dims(2)
     integer :: status
     file_dims = [int(size(block, 1), hsize_t), int(n_total, hsize_t)]
     block_dims = [int(size(block, 1), hsize_t), int(size(block, 2), hsize_t)]
-    offset = [0_hsize_t, int(first - 1, hsize_t)]
     call h5screate_simple_f(2, file_dims, file_space, status)
     call h5dcreate_f(location, name, H5T_NATIVE_DOUBLE, file_space, dataset, status)
     call check(status, 'create dataset ' // name, err)
-    call h5screate_simple_f(2, block_dims, memory_space, status)
-    if (block_dims(2) > 0) then
-      call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, offset, block_dims, status)
-    else
-      call h5sselect_none_f(file_space, status)
-      call h5sselect_none_f(memory_space, status)
-    end if
+    call select_columns(file_space, block_dims, first, memory_space, transfer, status)
     call check(status, 'select the block of ' // name // ' starting at column ' // str(first), err)
-    call h5pcreate_f(H5P_DATASET_XFER_F, transfer, status)
-    call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, status)
     call h5dwrite_f(dataset, H5T_NATIVE_DOUBLE, block, block_dims, status, &
                     mem_space_id=memory_space, file_space_id=file_space, xfer_prp=transfer)
     call check(status, 'write dataset ' // name, err)
@@ -325,7 +316,7 @@ contains
     integer(i8), intent(in) :: first, n_total
     type(error_t), intent(inout) :: err
     integer(hid_t) :: file_space, memory_space, dataset, transfer
-    integer(hsize_t) :: file_dims(2), max_dims(2), block_dims(2), offset(2)
+    integer(hsize_t) :: file_dims(2), max_dims(2), block_dims(2)
     integer :: status, rank
     call h5dopen_f(location, name, dataset, status)
     if (status < 0) then
@@ -343,16 +334,7 @@ contains
       return
     end if
     block_dims = [int(size(block, 1), hsize_t), int(size(block, 2), hsize_t)]
-    offset = [0_hsize_t, int(first - 1, hsize_t)]
-    call h5screate_simple_f(2, block_dims, memory_space, status)
-    if (block_dims(2) > 0) then
-      call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, offset, block_dims, status)
-    else
-      call h5sselect_none_f(file_space, status)
-      call h5sselect_none_f(memory_space, status)
-    end if
-    call h5pcreate_f(H5P_DATASET_XFER_F, transfer, status)
-    call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, status)
+    call select_columns(file_space, block_dims, first, memory_space, transfer, status)
     call h5dread_f(dataset, H5T_NATIVE_DOUBLE, block, block_dims, status, &
                    mem_space_id=memory_space, file_space_id=file_space, xfer_prp=transfer)
     call check(status, 'read dataset ' // name // ' (damaged file?)', err)
@@ -361,6 +343,27 @@ contains
     call h5sclose_f(file_space, status)
     call h5dclose_f(dataset, status)
   end subroutine read_distributed_columns
+
+  !> This rank's columns first..first+block_dims(2)-1 selected in file_space (none for an empty
+  !> block: the transfer is collective, every rank takes part), the matching memory space, and a
+  !> collective MPI-IO transfer list; the caller closes memory_space and transfer.
+  subroutine select_columns(file_space, block_dims, first, memory_space, transfer, status)
+    integer(hid_t), intent(in) :: file_space
+    integer(hsize_t), intent(in) :: block_dims(2)
+    integer(i8), intent(in) :: first
+    integer(hid_t), intent(out) :: memory_space, transfer
+    integer, intent(out) :: status
+    integer :: ignored
+    call h5screate_simple_f(2, block_dims, memory_space, ignored)
+    if (block_dims(2) > 0) then
+      call h5sselect_hyperslab_f(file_space, H5S_SELECT_SET_F, [0_hsize_t, int(first - 1, hsize_t)], block_dims, status)
+    else
+      call h5sselect_none_f(file_space, status)
+      call h5sselect_none_f(memory_space, ignored)
+    end if
+    call h5pcreate_f(H5P_DATASET_XFER_F, transfer, ignored)
+    call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, ignored)
+  end subroutine select_columns
 
   !> HDF5 prints its error stack on every failed call by default; a damaged cache or checkpoint
   !> is an expected case, reported by one warning line instead. `quiet` = .false. restores the printing.
