@@ -2,7 +2,7 @@
 !> one rank ends in `agree_on_error`, so the ranks always stop together with one message.
 module beadmob_run
   use, intrinsic :: iso_fortran_env, only: error_unit
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
@@ -17,7 +17,8 @@ module beadmob_run
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_result_file, only: write_result_file
   use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
-  use beadmob_mobility, only: mobility_result_t, compute_mobility
+  use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
+  use beadmob_error_estimate, only: estimate_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy
   use beadmob_block_table, only: on_unit_lattice
@@ -37,6 +38,7 @@ contains
     type(bead_model_t) :: model
     type(body_frame_t) :: frame
     type(mobility_result_t) :: mobility
+    real(dp) :: companion_mobility(6, 6)
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
     type(accuracy_choice_t) :: choice
@@ -134,6 +136,13 @@ contains
       else
         mobility = undefined_mobility(hydro%friction)
       end if
+      ! The error bar: the companion's mobility in this run's body frame (theory.md T14).
+      if (hydro%companion_order > 0 .and. hydro%diagnostics%finite .and. all(ieee_is_finite(hydro%companion_friction))) then
+        call mobility_in_frame(hydro%companion_friction, mobility%body_axes, companion_mobility, err)
+        if (err%failed) return
+        hydro%estimate = estimate_error(mobility%body_mobility, companion_mobility, model%reference_length, &
+                                        hydro%companion_order)
+      end if
       call progress_line(settings%progress .and. ctx%rank == 0, 'phase output')
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
       ! The result is safe: the saved solves are no longer needed (a failed write keeps them).
@@ -223,6 +232,16 @@ contains
     write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
+    if (hydro%estimate%available) then
+      write (*, '(a, 5f10.4)') '  estimated error (+-):    ', hydro%estimate%coefficient_error
+      write (*, '(a, 5f10.4)') '  extrapolated in L:       ', hydro%estimate%extrapolated_coefficients
+      write (*, '(a, 5f10.4)') '  its error (+-):          ', hydro%estimate%extrapolated_coefficient_error
+      write (*, '(a, es8.1, a, es8.1, a)') '  estimated error of the mobility:', hydro%estimate%largest, &
+        ' (extrapolated', hydro%estimate%largest_extrapolated, '), largest entry on the scale sqrt(M_ii M_jj); ' // &
+        'companion order L = ' // str(hydro%estimate%companion_order)
+    else if (config%hydrodynamics%multipole_order == 1) then
+      write (*, '(a)') '  estimated error: none at L = 1 (no lower order to compare with)'
+    end if
     if (len_trim(hydro%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(hydro%cache_file) // ': ' // &
       str(hydro%cached_blocks) // ' blocks read, ' // str(hydro%computed_blocks) // ' computed; lubrication ' // &
       str(hydro%lubrication_table%cached_distances) // ' distances read, ' // &

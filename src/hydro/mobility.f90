@@ -11,9 +11,12 @@ module beadmob_mobility
   use beadmob_strings, only: str
   implicit none
   private
-  public :: mobility_result_t, compute_mobility, shifted
+  public :: mobility_result_t, compute_mobility, shifted, mobility_in_frame, coefficient_entries, coefficient_lengths
 
   real(dp), parameter :: pi = acos(-1.0_dp)
+  !> (row, column) of the body-frame mobility behind mu11, mu22, mu33, mu42, mu51 (rows and
+  !> columns 1-3 translation / force, 4-6 rotation / torque)
+  integer, parameter :: coefficient_entries(2, 5) = reshape([1, 1, 2, 2, 3, 3, 4, 2, 5, 1], [2, 5])
 
   type :: mobility_result_t
     real(dp) :: friction(6, 6) = 0.0_dp          ! model coordinates, about the reference point
@@ -38,21 +41,13 @@ contains
     real(dp), intent(in) :: friction(6, 6), reference_point(3), axes(3, 3), reference_length
     type(mobility_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
-    real(dp) :: work(6, 6), rotation(3, 3), tt(3, 3), rt(3, 3), pattern_max, other_max
-    integer :: pivots(6), info, k
+    real(dp) :: rotation(3, 3), tt(3, 3), rt(3, 3), pattern_max, other_max
+    integer :: k
 
     result%friction = friction
     result%symmetry_error = norm2(friction - transpose(friction)) / norm2(friction)
-    work = friction
-    result%mobility = 0.0_dp
-    do k = 1, 6
-      result%mobility(k, k) = 1.0_dp
-    end do
-    call dgesv(6, 6, work, 6, pivots, result%mobility, 6, info)
-    if (info /= 0) then
-      call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
-      return
-    end if
+    call invert(friction, result%mobility, err)
+    if (err%failed) return
 
     call centre_of_mobility(result%mobility, reference_point, result%centre_of_mobility, result%mobility_at_centre, err)
     if (err%failed) return
@@ -70,13 +65,50 @@ contains
 
     tt = pi * reference_length * result%body_mobility(1:3, 1:3)
     rt = pi * reference_length**2 * result%body_mobility(4:6, 1:3)
-    result%coefficients = [tt(1, 1), tt(2, 2), tt(3, 3), rt(1, 2), rt(2, 1)]
+    do k = 1, 5
+      result%coefficients(k) = coefficient_lengths(k, reference_length) * &
+                               result%body_mobility(coefficient_entries(1, k), coefficient_entries(2, k))
+    end do
     pattern_max = maxval(abs(result%coefficients))
     tt(1, 1) = 0.0_dp; tt(2, 2) = 0.0_dp; tt(3, 3) = 0.0_dp
     rt(1, 2) = 0.0_dp; rt(2, 1) = 0.0_dp
     other_max = max(maxval(abs(tt)), maxval(abs(rt)))
     result%off_pattern = other_max / pattern_max
   end subroutine compute_mobility
+
+  !> The factor of coefficient k (mu11 ... mu51) on its mobility entry: pi eta L for mu_tt,
+  !> pi eta L^2 for mu_rt (paper, eq. "matrices"; eta = 1).
+  pure real(dp) function coefficient_lengths(k, reference_length)
+    integer, intent(in) :: k
+    real(dp), intent(in) :: reference_length
+    coefficient_lengths = pi * reference_length**merge(1, 2, k <= 3)
+  end function coefficient_lengths
+
+  !> The mobility of `friction` in the frame whose columns are `axes` (e.g. another result's
+  !> body_axes, so that two frictions of one body are compared entry by entry).
+  subroutine mobility_in_frame(friction, axes, body_mobility, err)
+    real(dp), intent(in) :: friction(6, 6), axes(3, 3)
+    real(dp), intent(out) :: body_mobility(6, 6)
+    type(error_t), intent(inout) :: err
+    real(dp) :: mobility(6, 6)
+    call invert(friction, mobility, err)
+    if (.not. err%failed) body_mobility = in_frame(mobility, transpose(axes))
+  end subroutine mobility_in_frame
+
+  subroutine invert(friction, mobility, err)
+    real(dp), intent(in) :: friction(6, 6)
+    real(dp), intent(out) :: mobility(6, 6)
+    type(error_t), intent(inout) :: err
+    real(dp) :: work(6, 6)
+    integer :: pivots(6), info, k
+    work = friction
+    mobility = 0.0_dp
+    do k = 1, 6
+      mobility(k, k) = 1.0_dp
+    end do
+    call dgesv(6, 6, work, 6, pivots, mobility, 6, info)
+    if (info /= 0) call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
+  end subroutine invert
 
   !> Moving the reference point by d: M(P) = A M A^T, A = [[I, -[d]x], [0, I]] (U_P = U_O + Omega x d,
   !> T_O = T_P + d x F), so the coupling becomes M_rt + M_rr [d]x. The centre of mobility makes it

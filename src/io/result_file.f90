@@ -16,6 +16,8 @@ module beadmob_result_file
   use beadmob_mobility, only: mobility_result_t
   use beadmob_rigid_body_solve, only: motion_names
   use beadmob_friction_job, only: friction_result_t, phase_names
+  use beadmob_error_estimate, only: error_estimate_t, entry_factor, block_factor, extrapolation_ratio, &
+                                    extrapolated_entry_factor, extrapolated_block_factor
   use beadmob_friction_diagnostics, only: friction_diagnostics_t, condition_threshold, asymmetry_threshold
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
@@ -208,6 +210,7 @@ contains
       call write_attribute(group, 'accuracy_target_met', merge(1, 0, hydro%accuracy%target_met), err)
       call write_attribute(group, 'accuracy_reference', trim(hydro%accuracy%reference), err)
     end if
+    call write_estimate(ctx, group, hydro, err)
     call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
     call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
     call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
@@ -241,6 +244,50 @@ contains
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
+
+  !> The error bar (error_estimate.f90, theory.md T14): the companion of order L - 1, the estimated
+  !> error of the mobility and of the coefficients, the values extrapolated in L with theirs.
+  subroutine write_estimate(ctx, group, hydro, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: group
+    type(friction_result_t), intent(in) :: hydro
+    type(error_t), intent(inout) :: err
+    type(error_estimate_t) :: e
+    e = hydro%estimate
+    call write_attribute(group, 'error_estimate', merge(1, 0, e%available), err)
+    if (.not. e%available) then
+      call write_attribute(group, 'error_estimate_method', 'none: ' // merge('order L = 1 has no lower order      ', &
+                                                                             'no companion solve or a NaN friction', &
+                                                                             hydro%companion_order == 0 .and. &
+                                                                             hydro%unknowns_per_bead == 6), err)
+      return
+    end if
+    call write_attribute(group, 'error_estimate_method', 'order L against the companion of order L - 1 on the ' // &
+                         'same beads, factors fitted on bench/error_estimate.md (docs/theory.md T14)', err)
+    call write_attribute(group, 'error_measure', '|dM_ij| / sqrt(M_ii M_jj), body-frame mobility M', err)
+    call write_attribute(group, 'error_estimate_factors', [entry_factor, block_factor, extrapolation_ratio, &
+                                                           extrapolated_entry_factor, extrapolated_block_factor], err)
+    call write_attribute(group, 'estimated_error', e%largest, err)
+    call write_attribute(group, 'estimated_extrapolated_error', e%largest_extrapolated, err)
+    call write_attribute(group, 'companion_order', hydro%companion_order, err)
+    call write_attribute(group, 'companion_potential_order', hydro%companion_potential_order, err)
+    call write_attribute(group, 'companion_unknowns_per_bead', hydro%companion_unknowns_per_bead, err)
+    call write_attribute(group, 'companion_iterations', hydro%companion_solves%iterations, err)
+    call write_attribute(group, 'companion_converged_reason', hydro%companion_solves%converged_reason, err)
+    call write_attribute(group, 'companion_true_relative_residual', hydro%companion_solves%true_relative_residual, err)
+    call write_replicated_dataset(ctx, group, 'companion_friction', transpose(hydro%companion_friction), err)
+    call write_replicated_dataset(ctx, group, 'companion_body_mobility', transpose(e%companion_mobility), err)
+    call write_replicated_dataset(ctx, group, 'companion_coefficients', e%companion_coefficients, err)
+    call write_replicated_dataset(ctx, group, 'body_mobility_error', transpose(e%mobility_error), err)
+    call write_replicated_dataset(ctx, group, 'scaled_body_mobility_error', transpose(e%scaled_mobility_error), err)
+    call write_replicated_dataset(ctx, group, 'coefficient_error', e%coefficient_error, err)
+    call write_replicated_dataset(ctx, group, 'scaled_coefficient_error', e%scaled_coefficient_error, err)
+    call write_replicated_dataset(ctx, group, 'extrapolated_body_mobility', transpose(e%extrapolated_mobility), err)
+    call write_replicated_dataset(ctx, group, 'extrapolated_coefficients', e%extrapolated_coefficients, err)
+    call write_replicated_dataset(ctx, group, 'extrapolated_coefficient_error', e%extrapolated_coefficient_error, err)
+    call write_replicated_dataset(ctx, group, 'scaled_extrapolated_coefficient_error', &
+                                  e%scaled_extrapolated_coefficient_error, err)
+  end subroutine write_estimate
 
   !> <prefix>_finite, _positive_definite, _symmetric, _well_conditioned (0/1), _condition_number,
   !> _min_eigenvalue, _eigenvalues (of the symmetric part), _asymmetry: friction_diagnostics.f90.

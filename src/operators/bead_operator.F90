@@ -13,7 +13,7 @@ module beadmob_bead_operator
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
   implicit none
   private
-  public :: bead_operator_t, create_bead_operator, destroy_bead_operator
+  public :: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
 
   !> The MATSHELL context: what a product needs, set once.
   type :: bead_operator_t
@@ -57,8 +57,6 @@ contains
     Mat, intent(out) :: matrix
     type(error_t), intent(inout) :: err
     PetscErrorCode :: ierr
-    PetscInt :: local_size, global_size
-    Vec :: template
     integer :: failed_here, failed_anywhere
 
     op%block_size = basis%size
@@ -71,8 +69,43 @@ contains
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) return
-    local_size = int(n_local * basis%size)
-    global_size = int(op%n_beads * basis%size)
+    call make_shell(comm, op, matrix)
+  end subroutine create_bead_operator
+
+  !> Collective. The operator of the sub-basis `unknowns` (indices into the parent's unknowns per
+  !> bead, e.g. the order L - 1 functions of an order-L basis) on the same beads: the principal
+  !> sub-blocks of the parent's blocks (a Galerkin entry depends on its two functions only,
+  !> theory.md T14), copied, so no quadrature is repeated. `companion` must stay in place while
+  !> `matrix` lives.
+  subroutine create_bead_companion(comm, parent, unknowns, companion, matrix)
+    MPI_Comm, intent(in) :: comm
+    type(bead_operator_t), intent(in) :: parent
+    integer, intent(in) :: unknowns(:)
+    type(bead_operator_t), target, intent(inout) :: companion
+    Mat, intent(out) :: matrix
+    companion%block_size = size(unknowns)
+    companion%n_beads = parent%n_beads
+    companion%first_bead = parent%first_bead
+    companion%n_local = parent%n_local
+    companion%self_block = parent%self_block(unknowns, unknowns)
+    companion%table%on_lattice = parent%table%on_lattice
+    companion%table%block_size = size(unknowns)
+    companion%table%span = parent%table%span
+    if (allocated(parent%table%lattice)) companion%table%lattice = parent%table%lattice
+    companion%table%blocks = parent%table%blocks(unknowns, unknowns, :)
+    call make_shell(comm, companion, matrix)
+  end subroutine create_bead_companion
+
+  !> The MATSHELL of a set-up operator and the gather of x its products need.
+  subroutine make_shell(comm, op, matrix)
+    MPI_Comm, intent(in) :: comm
+    type(bead_operator_t), target, intent(inout) :: op
+    Mat, intent(out) :: matrix
+    PetscErrorCode :: ierr
+    PetscInt :: local_size, global_size
+    Vec :: template
+    local_size = int(op%n_local * op%block_size)
+    global_size = int(op%n_beads * op%block_size)
     PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, matrix, ierr))
     PetscCallA(MatShellSetOperation(matrix, MATOP_MULT, apply_bead_operator, ierr))
     PetscCallA(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE, ierr))
@@ -80,7 +113,7 @@ contains
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     PetscCallA(VecScatterCreateToAll(template, op%gather, op%gathered, ierr))
     PetscCallA(VecDestroy(template, ierr))
-  end subroutine create_bead_operator
+  end subroutine make_shell
 
   subroutine destroy_bead_operator(op, matrix)
     type(bead_operator_t), intent(inout) :: op

@@ -44,7 +44,7 @@ module beadmob_fft_operator
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
   implicit none
   private
-  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion
 
   ! The part of FFTW's Fortran 2003 MPI interface used here, with the names, C symbols and
   ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
@@ -138,6 +138,10 @@ module beadmob_fft_operator
     !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
     !> for this rank's frequencies: the real part, or for an even-odd entry the imaginary part.
     real(dp), allocatable :: kernel(:, :)
+    !> A companion (create_fft_companion) holds no kernel of its own: it reads its entries from
+    !> its parent's, entry e of its packed triangle being kernel_map(e) of the parent's.
+    real(dp), pointer, contiguous :: shared_kernel(:, :) => null()
+    integer, allocatable :: kernel_map(:)
     type(C_PTR) :: buffer = C_NULL_PTR, forward = C_NULL_PTR, backward = C_NULL_PTR
     real(C_DOUBLE), pointer, contiguous :: real_data(:) => null()
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
@@ -193,7 +197,8 @@ contains
   !> (err set on some rank) no matrix is created; calling destroy_fft_operator then is harmless.
   !> report (default false; true on rank 0 only): progress lines of the set-up, which takes
   !> minutes for a million beads (the blocks, then each batch of kernel entries).
-  subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report)
+  !> keep_lattice (default false): keep op%table%lattice for a companion (create_fft_companion).
+  subroutine create_fft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report, keep_lattice)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
@@ -201,11 +206,10 @@ contains
     type(fft_operator_t), target, intent(inout) :: op
     Mat, intent(out) :: matrix
     type(error_t), intent(inout) :: err
-    logical, intent(in), optional :: report
+    logical, intent(in), optional :: report, keep_lattice
     PetscErrorCode :: ierr
-    PetscInt :: local_size, global_size
     integer :: failed_here, failed_anywhere
-    logical :: reporting
+    logical :: reporting, keeping
     real(dp) :: start
 
     reporting = .false.
@@ -239,8 +243,78 @@ contains
       return
     end if
 
-    call make_slab_scatter(comm, op, err)
-    if (allocated(op%table%lattice)) deallocate (op%table%lattice)   ! the scatter holds the sites now
+    keeping = .false.
+    if (present(keep_lattice)) keeping = keep_lattice
+    call finish_shell(comm, op, matrix, err, keeping)
+  end subroutine create_fft_operator
+
+  !> Collective. The operator of the sub-basis `unknowns` (indices into the parent's unknowns per
+  !> bead; e.g. the order L - 1 functions of an order-L basis) on the same beads: the principal
+  !> sub-blocks of the parent's, since a Galerkin block entry depends on its two functions only
+  !> (theory.md T14). Its kernel entries are the parent's (a transform of a sub-block is the
+  !> sub-block of the transform), read in place: only the plans, the buffer and the scatter of
+  !> size(unknowns) fields are new. The parent must have been created with keep_lattice
+  !> (its lattice moves to the companion and is freed) and must outlive the companion; `companion`
+  !> must stay in place while `matrix` lives.
+  subroutine create_fft_companion(comm, parent, unknowns, companion, matrix, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), target, intent(inout) :: parent
+    integer, intent(in) :: unknowns(:)
+    type(fft_operator_t), target, intent(inout) :: companion
+    Mat, intent(out) :: matrix
+    type(error_t), intent(inout) :: err
+    integer :: parent_slot(size(unknowns)), slot_parent(size(unknowns)), a, s, t, ps, pt
+
+    if (.not. allocated(parent%table%lattice)) then
+      call raise(err, 'internal error: the FFT companion needs its parent''s lattice (keep_lattice)')
+      return
+    end if
+    companion%block_size = size(unknowns)
+    companion%n_beads = parent%n_beads
+    companion%first_bead = parent%first_bead
+    companion%n_local = parent%n_local
+    companion%self_block = parent%self_block(unknowns, unknowns)
+    companion%measure_plans = parent%measure_plans
+    companion%table%span = parent%table%span
+    call move_alloc(parent%table%lattice, companion%table%lattice)
+    ! Slots keep the parent's order (even ones first), renumbered 1..size(unknowns).
+    parent_slot = parent%slot(unknowns)
+    companion%n_even = count(parent_slot <= parent%n_even)
+    allocate (companion%slot(size(unknowns)))
+    do a = 1, size(unknowns)
+      companion%slot(a) = count(parent_slot <= parent_slot(a))
+      slot_parent(companion%slot(a)) = parent_slot(a)
+    end do
+    allocate (companion%kernel_map(size(unknowns) * (size(unknowns) + 1) / 2))
+    do t = 1, size(unknowns)
+      do s = 1, t
+        ps = slot_parent(s)
+        pt = slot_parent(t)
+        companion%kernel_map(s + t * (t - 1) / 2) = ps + pt * (pt - 1) / 2
+      end do
+    end do
+    call plan_transforms(comm, companion, err)
+    ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
+    if (.not. err%failed .and. companion%n_frequencies /= parent%n_frequencies) &
+      call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
+    companion%shared_kernel => parent%kernel
+    call finish_shell(comm, companion, matrix, err, .false.)
+  end subroutine create_fft_companion
+
+  !> Collective: the slab scatter, then the MATSHELL (none if some rank failed).
+  subroutine finish_shell(comm, op, matrix, err, keep_lattice)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), target, intent(inout) :: op
+    Mat, intent(out) :: matrix
+    type(error_t), intent(inout) :: err
+    logical, intent(in) :: keep_lattice
+    PetscErrorCode :: ierr
+    PetscInt :: local_size, global_size
+    integer :: failed_here, failed_anywhere
+
+    if (.not. err%failed) call make_slab_scatter(comm, op, err)
+    ! the scatter holds the sites now
+    if (allocated(op%table%lattice) .and. .not. keep_lattice) deallocate (op%table%lattice)
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) then
@@ -249,14 +323,14 @@ contains
       return
     end if
 
-    local_size = int(n_local * basis%size)
-    global_size = int(op%n_beads * basis%size)
+    local_size = int(op%n_local * op%block_size)
+    global_size = int(op%n_beads * op%block_size)
     PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, matrix, ierr))
     PetscCallA(MatShellSetOperation(matrix, MATOP_MULT, apply_fft_operator, ierr))
     PetscCallA(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE, ierr))
     PetscCallA(MatSetOption(matrix, MAT_SPD, PETSC_TRUE, ierr))
     op%created = .true.
-  end subroutine create_fft_operator
+  end subroutine finish_shell
 
   subroutine destroy_fft_operator(op, matrix)
     type(fft_operator_t), intent(inout) :: op
@@ -270,6 +344,7 @@ contains
     end if
     call free_fftw(op)
     if (allocated(op%kernel)) deallocate (op%kernel)
+    op%shared_kernel => null()
   end subroutine destroy_fft_operator
 
   subroutine free_fftw(op)
@@ -645,7 +720,11 @@ contains
     ! PETSc's object state (cached norms etc.) knows.
     PetscCall(VecGetArrayF90(op%slab, slab, ierr))
     call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
-    call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%kernel, op%spectrum)
+    if (associated(op%shared_kernel)) then
+      call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%shared_kernel, op%spectrum, op%kernel_map)
+    else
+      call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%kernel, op%spectrum)
+    end if
     call fftw_mpi_execute_dft_c2r(op%backward, op%spectrum, op%real_data)
     PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
 
@@ -663,37 +742,53 @@ contains
     ierr = 0
   end subroutine apply_fft_operator
 
-  !> spectrum(:, f) <- K^(f) spectrum(:, f), K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed
-  !> upper triangle (module header). Column t of the triangle gives y(s) += K(s, t) x(t) for
-  !> s < t and, by symmetry, y(t) += K(t, s) x(s): contiguous loops over the kernel column.
-  pure subroutine multiply_spectrum(nb, n_even, n_frequencies, kernel, spectrum)
+  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f; K^(f) is kernel(:, f), or with
+  !> `map` (a companion) kernel(map, f).
+  pure subroutine multiply_spectrum(nb, n_even, n_frequencies, kernel, spectrum, map)
     integer, intent(in) :: nb, n_even
     integer(i8), intent(in) :: n_frequencies
     real(dp), intent(in) :: kernel(:, :)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
+    integer, intent(in), optional :: map(:)
+    integer(i8) :: f
+    if (present(map)) then
+      do f = 1, n_frequencies
+        call multiply_frequency(nb, n_even, kernel(map, f), spectrum(:, f))
+      end do
+    else
+      do f = 1, n_frequencies
+        call multiply_frequency(nb, n_even, kernel(:, f), spectrum(:, f))
+      end do
+    end if
+  end subroutine multiply_spectrum
+
+  !> x <- K^ x, K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper triangle `packed`
+  !> (module header). Column t of the triangle gives y(s) += K(s, t) x(t) for s < t and, by
+  !> symmetry, y(t) += K(t, s) x(s): contiguous loops over the kernel column.
+  pure subroutine multiply_frequency(nb, n_even, packed, spectrum)
+    integer, intent(in) :: nb, n_even
+    real(dp), intent(in) :: packed(:)
+    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
     complex(C_DOUBLE_COMPLEX), parameter :: i_unit = (0.0_dp, 1.0_dp)
     complex(C_DOUBLE_COMPLEX) :: x(nb), y(nb), ix
-    integer(i8) :: f
     integer :: t, top
-    do f = 1, n_frequencies
-      x = spectrum(:, f)
-      y = 0.0_dp
-      do t = 1, n_even                  ! even-even: real symmetric
-        top = t * (t - 1) / 2
-        y(1:t - 1) = y(1:t - 1) + kernel(top + 1:top + t - 1, f) * x(t)
-        y(t) = y(t) + sum(kernel(top + 1:top + t - 1, f) * x(1:t - 1)) + kernel(top + t, f) * x(t)
-      end do
-      do t = n_even + 1, nb
-        top = t * (t - 1) / 2
-        ! even-odd: K(s, t) = i J(s, t), K(t, s) = -i J(s, t)
-        ix = i_unit * x(t)
-        y(1:n_even) = y(1:n_even) + kernel(top + 1:top + n_even, f) * ix
-        y(t) = y(t) - i_unit * sum(kernel(top + 1:top + n_even, f) * x(1:n_even))
-        ! odd-odd: real symmetric
-        y(n_even + 1:t - 1) = y(n_even + 1:t - 1) + kernel(top + n_even + 1:top + t - 1, f) * x(t)
-        y(t) = y(t) + sum(kernel(top + n_even + 1:top + t - 1, f) * x(n_even + 1:t - 1)) + kernel(top + t, f) * x(t)
-      end do
-      spectrum(:, f) = y
+    x = spectrum
+    y = 0.0_dp
+    do t = 1, n_even                  ! even-even: real symmetric
+      top = t * (t - 1) / 2
+      y(1:t - 1) = y(1:t - 1) + packed(top + 1:top + t - 1) * x(t)
+      y(t) = y(t) + sum(packed(top + 1:top + t - 1) * x(1:t - 1)) + packed(top + t) * x(t)
     end do
-  end subroutine multiply_spectrum
+    do t = n_even + 1, nb
+      top = t * (t - 1) / 2
+      ! even-odd: K(s, t) = i J(s, t), K(t, s) = -i J(s, t)
+      ix = i_unit * x(t)
+      y(1:n_even) = y(1:n_even) + packed(top + 1:top + n_even) * ix
+      y(t) = y(t) - i_unit * sum(packed(top + 1:top + n_even) * x(1:n_even))
+      ! odd-odd: real symmetric
+      y(n_even + 1:t - 1) = y(n_even + 1:t - 1) + packed(top + n_even + 1:top + t - 1) * x(t)
+      y(t) = y(t) + sum(packed(top + n_even + 1:top + t - 1) * x(n_even + 1:t - 1)) + packed(top + t) * x(t)
+    end do
+    spectrum = y
+  end subroutine multiply_frequency
 end module beadmob_fft_operator

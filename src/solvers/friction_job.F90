@@ -11,8 +11,9 @@ module beadmob_friction_job
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_pair_blocks, only: rigid_projection
-  use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
-  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+  use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
+  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, &
+                                  create_fft_companion
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
@@ -23,15 +24,16 @@ module beadmob_friction_job
   use beadmob_checkpoint_file, only: reals_digest
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
+  use beadmob_error_estimate, only: error_estimate_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
-            operator_option
+            operator_option, companion_orders
 
-  character(len=*), parameter :: phase_names(5) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
-                                                   'lubrication', 'total']
+  character(len=*), parameter :: phase_names(6) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
+                                                   'companion', 'lubrication', 'total']
 
   type :: friction_settings_t
     integer :: order = 2                ! L
@@ -73,6 +75,9 @@ module beadmob_friction_job
     !> Test option -stop_after_solves k: stop with an error after the k-th solve has been saved
     !> (0 = never; -1: given but not a number >= 1, an error)
     integer :: stop_after_solves = 0
+    !> The companion solve of order L - 1 on the same beads (theory.md T14), from which the
+    !> driver estimates the truncation error of order L; needs L >= 2.
+    logical :: companion = .true.
   end type friction_settings_t
 
   type :: friction_result_t
@@ -107,6 +112,17 @@ module beadmob_friction_job
     real(dp) :: phase_peak_memory_bytes(size(phase_names) - 1) = 0.0_dp
     !> With settings%bead_forces: (36, this rank's beads), see rigid_body_friction.
     real(dp), allocatable :: bead_forces(:, :)
+    !> The companion of order L - 1 (companion_order 0: none was solved): its friction with the
+    !> lubrication correction of its order when that is on, the order-(L - 1) friction alone,
+    !> its unknowns per bead and its solves.
+    integer :: companion_order = 0
+    integer :: companion_potential_order = 0
+    integer :: companion_unknowns_per_bead = 0
+    real(dp) :: companion_friction(6, 6) = 0.0_dp
+    real(dp) :: companion_multipole_friction(6, 6) = 0.0_dp
+    type(solve_statistics_t) :: companion_solves
+    !> The error bar made from the two (set by the driver, error_estimate.f90)
+    type(error_estimate_t) :: estimate
   end type friction_result_t
 
 contains
@@ -167,8 +183,9 @@ contains
     PetscErrorCode :: ierr   ! also the MPI error code (both default integers)
     PetscLogStage :: stages(size(phase_names) - 1)
     character(len=32) :: stage_name
+    type(lubrication_table_t) :: companion_table
     type(solve_control_t) :: control
-    logical :: report
+    logical :: report, with_companion
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
@@ -181,6 +198,7 @@ contains
     end do
     start = MPI_Wtime()
     report = settings%progress .and. ctx%rank == 0
+    with_companion = settings%companion .and. settings%order >= 2
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%order, settings%potential_order)
     result%unknowns_per_bead = basis%size
@@ -201,7 +219,8 @@ contains
     if (result%operator_name == 'fft') then
       fft_op%table%cache_file = trim(settings%cache_file)   ! read by make_block_table
       fft_op%measure_plans = settings%fft_planner == 'measure'
-      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err, report)
+      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err, report, &
+                               keep_lattice=with_companion)
       call agree_on_error(ctx, err)
       if (err%failed) then
         call destroy_fft_operator(fft_op, matrix)
@@ -269,44 +288,118 @@ contains
                              settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
                              symmetry, settings%motions, control, err)
     if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
-    call release_operator()
     if (err%failed) then   ! the test stop: the same solve count on every rank
+      call release_operator()
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
-    do phase = 1, 6   ! entries between two motions not computed are unknown
-      where (result%solves%source < 0 .and. result%solves%source(phase) < 0) &
-        result%multipole_friction(:, phase) = ieee_value(1.0_dp, ieee_quiet_nan)
-    end do
+    call mask_uncomputed(result%solves, result%multipole_friction)
     call mark(3)
 
+    if (with_companion) call companion_friction(err)
+    call release_operator()
+    if (err%failed) then
+      PetscCallA(PetscLogStagePop(ierr))
+      return
+    end if
+    call mark(4)
+
     result%friction = result%multipole_friction
+    result%companion_friction = result%companion_multipole_friction
     if (settings%lubrication) then
-      ! Every rank gets the same small table; the pair sum is split by rows.
-      call make_shared_lubrication_table(ctx%comm, settings%order, settings%potential_order, centres, &
-                                         settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), trim(settings%cache_file), &
-                                         result%lubrication_table, err)
-      call agree_on_error(ctx, err)
+      call lubricated(settings%order, settings%potential_order, result%lubrication_table, result%friction)
+      if (with_companion .and. .not. err%failed) then
+        call lubricated(result%companion_order, result%companion_potential_order, companion_table, &
+                        result%companion_friction)
+      end if
       if (err%failed) then
         PetscCallA(PetscLogStagePop(ierr))
         return
       end if
-      local = 0.0_dp
-      call add_lubrication(result%lubrication_table, centres, reference_point, int(first), int(first + count - 1), &
-                           local, local_pairs)
-      call MPI_Allreduce(local, lubrication_sum, 36, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
-      call MPI_Allreduce(local_pairs, result%lubrication_pairs, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
-      result%friction = result%friction + lubrication_sum
       result%lubrication_reference_order = reference_order
     end if
-    call mark(4)
-    result%seconds(5) = MPI_Wtime() - start
+    call mark(5)
+    result%seconds(size(phase_names)) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call MPI_Allreduce(peak_resident_bytes(), result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call MPI_Allreduce(MPI_IN_PLACE, result%phase_peak_memory_bytes, size(result%phase_peak_memory_bytes), &
                        MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
+
+    !> The companion of order L - 1 on the same beads: the sub-basis of the order-L one, its operator
+    !> read from the order-L operator (create_*_companion, no new quadrature or kernel), the
+    !> single-bead preconditioner, the same motions, symmetries and tolerance; not checkpointed.
+    subroutine companion_friction(err)
+      type(error_t), intent(inout) :: err
+      type(multipole_basis_t) :: low
+      type(bead_operator_t), target :: direct_low
+      type(fft_operator_t), target :: fft_low
+      type(bead_block_preconditioner_t), target :: low_blocks
+      type(motion_symmetry_t), allocatable :: low_symmetry
+      type(solve_control_t) :: low_control
+      integer, allocatable :: unknowns(:)
+      Mat :: low_matrix
+
+      call companion_orders(settings%order, settings%potential_order, result%companion_order, &
+                            result%companion_potential_order)
+      low = make_multipole_basis(result%companion_order, result%companion_potential_order)
+      result%companion_unknowns_per_bead = low%size
+      unknowns = sub_basis(basis, low)
+      call progress_line(report, 'phase companion: order L = ' // str(result%companion_order) // ', ' // &
+                         str(low%size) // ' unknowns per bead, for the error estimate')
+      if (result%operator_name == 'fft') then
+        call create_fft_companion(ctx%comm, fft_op, unknowns, fft_low, low_matrix, err)
+        call agree_on_error(ctx, err)
+        if (err%failed) then
+          call destroy_fft_operator(fft_low, low_matrix)
+          return
+        end if
+      else
+        call create_bead_companion(ctx%comm, direct_op, unknowns, direct_low, low_matrix)
+      end if
+      call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
+      if (.not. err%failed .and. settings%use_symmetry) then
+        allocate (low_symmetry)
+        PetscCallA(MatCreateVecs(low_matrix, layout, PETSC_NULL_VEC, ierr))
+        call find_motion_symmetry(ctx%comm, low, centres, reference_point, first, count, layout, low_symmetry, err)
+        PetscCallA(VecDestroy(layout, ierr))
+        call agree_on_error(ctx, err)
+      end if
+      if (.not. err%failed) then
+        low_control%progress = report
+        low_control%label = 'companion solve'
+        call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
+                                 reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
+                                 result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
+                                 requested=settings%motions, control=low_control)
+        call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
+      end if
+      if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
+      if (result%operator_name == 'fft') then
+        call destroy_fft_operator(fft_low, low_matrix)
+      else
+        call destroy_bead_operator(direct_low, low_matrix)
+      end if
+    end subroutine companion_friction
+
+    !> friction += the lubrication correction of order (order, potential_order): every rank gets
+    !> the same small table (kept in `table`), the pair sum is split by rows.
+    subroutine lubricated(order, potential_order, table, friction)
+      integer, intent(in) :: order, potential_order
+      type(lubrication_table_t), intent(out) :: table
+      real(dp), intent(inout) :: friction(6, 6)
+      call make_shared_lubrication_table(ctx%comm, order, potential_order, centres, &
+                                         settings%lubrication_cutoff * (1.0_dp + 1.0e-9_dp), trim(settings%cache_file), &
+                                         table, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      local = 0.0_dp
+      call add_lubrication(table, centres, reference_point, int(first), int(first + count - 1), local, local_pairs)
+      call MPI_Allreduce(local, lubrication_sum, 36, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+      call MPI_Allreduce(local_pairs, result%lubrication_pairs, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
+      friction = friction + lubrication_sum
+    end subroutine lubricated
 
     !> The operator and, when assembled, the near-field matrix.
     subroutine release_operator()
@@ -333,6 +426,39 @@ contains
       end if
     end subroutine mark
   end subroutine friction_of_beads
+
+  !> The companion's order (L - 1) and potential order (L2 - 1, at least 0): one order lower in both
+  !> families, so its basis is a subset of the order-L one (multipole_basis.f90).
+  pure subroutine companion_orders(order, potential_order, low_order, low_potential_order)
+    integer, intent(in) :: order, potential_order
+    integer, intent(out) :: low_order, low_potential_order
+    low_order = order - 1
+    low_potential_order = max(potential_order - 1, 0)
+  end subroutine companion_orders
+
+  !> Index in `basis` of each function of `low` (same degree, family and harmonic; the functions
+  !> and their normalisation do not depend on the truncation, multipole_basis.f90).
+  pure function sub_basis(basis, low) result(unknowns)
+    type(multipole_basis_t), intent(in) :: basis, low
+    integer :: unknowns(low%size), a, b
+    unknowns = 0
+    do a = 1, low%size
+      do b = 1, basis%size
+        if (basis%degree(b) == low%degree(a) .and. basis%family(b) == low%family(a) .and. &
+            basis%harmonic(b) == low%harmonic(a)) unknowns(a) = b
+      end do
+    end do
+  end function sub_basis
+
+  !> Entries between two motions not computed are unknown (NaN).
+  pure subroutine mask_uncomputed(solves, friction)
+    type(solve_statistics_t), intent(in) :: solves
+    real(dp), intent(inout) :: friction(6, 6)
+    integer :: motion
+    do motion = 1, 6
+      where (solves%source < 0 .and. solves%source(motion) < 0) friction(:, motion) = ieee_value(1.0_dp, ieee_quiet_nan)
+    end do
+  end subroutine mask_uncomputed
 
   !> The part of a checkpoint's key the friction job knows (rigid_body_solve.F90 adds the Krylov
   !> settings used): everything the solutions depend on. The beads in the solve enter by a digest

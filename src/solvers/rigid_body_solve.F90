@@ -67,6 +67,8 @@ module beadmob_rigid_body_solve
     !> A test of the resume: stop with an error right after this many solves have been saved,
     !> as a kill at a wall-time limit would (0 = never)
     integer :: stop_after_solves = 0
+    !> First word(s) of the progress lines, e.g. 'companion solve' (friction_job.F90)
+    character(len=40) :: label = 'solve'
   end type solve_control_t
 
   !> A loaded solution must give the true residual it was saved with (to rounding, which varies
@@ -108,7 +110,7 @@ contains
     logical :: computed(6), loaded(6), saving, report
     type(saved_solve_t) :: saved(6)
     type(run_context_t) :: ctx
-    character(len=:), allocatable :: checkpoint_file, key
+    character(len=:), allocatable :: checkpoint_file, key, label
     real(dp) :: solve_seconds, started
     integer :: solves_done, solves_planned
     real(dp), target :: no_columns(size(projection, 1), 0)
@@ -132,8 +134,10 @@ contains
     ctx = make_run_context(comm)
     report = .false.
     checkpoint_file = ''
+    label = 'solve'
     if (present(control)) then
       report = control%progress
+      label = trim(control%label)
       if (allocated(control%checkpoint_file)) checkpoint_file = control%checkpoint_file
     end if
     PetscCallA(KSPCreate(comm, ksp, ierr))
@@ -223,7 +227,7 @@ contains
           loaded(motion) = .false.
           solves_planned = solves_planned + 1
         else
-          call progress_line(report, 'solve ' // motion_names(motion) // ': resumed from the checkpoint')
+          call progress_line(report, label // ' ' // motion_names(motion) // ': resumed from the checkpoint')
         end if
       end if
       if (stats%source(motion) == 0 .and. .not. loaded(motion)) then
@@ -238,7 +242,7 @@ contains
         if (saving) call save_checkpoint(motion)
         solves_done = solves_done + 1
         solve_seconds = solve_seconds + (MPI_Wtime() - started)
-        call progress_line(report, 'solve ' // motion_names(motion) // ': ' // str(int(iterations)) // &
+        call progress_line(report, label // ' ' // motion_names(motion) // ': ' // str(int(iterations)) // &
                            ' iterations, ' // progress_seconds(MPI_Wtime() - started) // ' s; ' // &
                            str(solves_planned - solves_done) // ' solves left, ~' // &
                            progress_seconds(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
