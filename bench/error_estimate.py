@@ -64,7 +64,7 @@ REFERENCE = "L4_tight"
 COEFFICIENTS = ["mu11", "mu22", "mu33", "mu42", "mu51"]
 # the paper's coefficients as (row, column) of the body-frame mobility and the power of the
 # reference length in their normalisation (pi eta L mu_tt, pi eta L^2 mu_rt)
-COEFFICIENT_ENTRIES = [(0, 0), (1, 1), (2, 2), (4, 1), (3, 0)]
+COEFFICIENT_ENTRIES = [(0, 0), (1, 1), (2, 2), (3, 1), (4, 0)]
 
 
 def make_bead_file(name):

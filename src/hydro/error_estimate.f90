@@ -23,10 +23,10 @@ module beadmob_error_estimate
             extrapolated_entry_factor, extrapolated_block_factor
 
   ! bench/error_estimate.md, "Calibration" (fitted on the tuning bodies only).
-  real(dp), parameter :: entry_factor = 0.5_dp
-  real(dp), parameter :: block_factor = 0.05_dp
+  real(dp), parameter :: entry_factor = 0.6_dp
+  real(dp), parameter :: block_factor = 0.03_dp
   real(dp), parameter :: extrapolation_ratio = 0.15_dp
-  real(dp), parameter :: extrapolated_entry_factor = 0.3_dp
+  real(dp), parameter :: extrapolated_entry_factor = 0.4_dp
   real(dp), parameter :: extrapolated_block_factor = 0.03_dp
 
   type :: error_estimate_t

@@ -274,7 +274,7 @@ contains
     companion%first_bead = parent%first_bead
     companion%n_local = parent%n_local
     companion%self_block = parent%self_block(unknowns, unknowns)
-    companion%measure_plans = parent%measure_plans
+    companion%measure_plans = .false.   ! measuring would cost more than its few products gain
     companion%table%span = parent%table%span
     call move_alloc(parent%table%lattice, companion%table%lattice)
     ! Slots keep the parent's order (even ones first), renumbered 1..size(unknowns).

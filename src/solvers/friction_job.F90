@@ -184,6 +184,10 @@ contains
     PetscLogStage :: stages(size(phase_names) - 1)
     character(len=32) :: stage_name
     type(lubrication_table_t) :: companion_table
+    ! the companion (theory.md T14): its basis, its unknowns in the order-L basis, its start
+    type(multipole_basis_t) :: low
+    integer, allocatable :: unknowns(:)
+    real(dp), allocatable :: low_start(:, :)
     type(solve_control_t) :: control
     logical :: report, with_companion
 
@@ -284,9 +288,17 @@ contains
     control%checkpoint_file = trim(settings%checkpoint_file)
     if (len(control%checkpoint_file) > 0) control%checkpoint_key = checkpoint_key(settings, centres, reference_point, &
                                                                                  basis%size, result%operator_name)
+    if (with_companion) then
+      ! The companion's basis now: the order-L solves keep their order L - 1 part as its start.
+      call companion_orders(settings%order, settings%potential_order, result%companion_order, &
+                            result%companion_potential_order)
+      low = make_multipole_basis(result%companion_order, result%companion_potential_order)
+      unknowns = sub_basis(basis, low)
+      allocate (low_start(size(unknowns) * count, 6))
+    end if
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
                              settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
-                             symmetry, settings%motions, control, err)
+                             symmetry, settings%motions, control, err, unknowns, low_start)
     if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
     if (err%failed) then   ! the test stop: the same solve count on every rank
       call release_operator()
@@ -332,20 +344,14 @@ contains
     !> single-bead preconditioner, the same motions, symmetries and tolerance; not checkpointed.
     subroutine companion_friction(err)
       type(error_t), intent(inout) :: err
-      type(multipole_basis_t) :: low
       type(bead_operator_t), target :: direct_low
       type(fft_operator_t), target :: fft_low
       type(bead_block_preconditioner_t), target :: low_blocks
       type(motion_symmetry_t), allocatable :: low_symmetry
       type(solve_control_t) :: low_control
-      integer, allocatable :: unknowns(:)
       Mat :: low_matrix
 
-      call companion_orders(settings%order, settings%potential_order, result%companion_order, &
-                            result%companion_potential_order)
-      low = make_multipole_basis(result%companion_order, result%companion_potential_order)
       result%companion_unknowns_per_bead = low%size
-      unknowns = sub_basis(basis, low)
       call progress_line(report, 'phase companion: order L = ' // str(result%companion_order) // ', ' // &
                          str(low%size) // ' unknowns per bead, for the error estimate')
       if (result%operator_name == 'fft') then
@@ -372,7 +378,7 @@ contains
         call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
                                  reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
                                  result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
-                                 requested=settings%motions, control=low_control)
+                                 requested=settings%motions, control=low_control, initial_guess=low_start)
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)

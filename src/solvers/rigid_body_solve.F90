@@ -89,9 +89,13 @@ contains
   !> the solver error, the variational form needs q_m), and 0 where neither is computed.
   !> control, when present, asks for progress lines, the checkpoint and the test stop; err is then
   !> needed too (the test stop and nothing else raises it, the same on every rank).
+  !> kept_unknowns and kept (size(kept_unknowns) n_local x 6), when present: the solutions'
+  !> entries of those unknowns per bead are copied to kept (e.g. the order L - 1 part of an order-L
+  !> solution); initial_guess (nb n_local x 6), when present, starts each solve from its column
+  !> instead of zero (the companion solve from the order-L solution, friction_job.F90).
   subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
                                  reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks, &
-                                 symmetry, requested, control, err)
+                                 symmetry, requested, control, err, kept_unknowns, kept, initial_guess)
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
     real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
@@ -107,6 +111,9 @@ contains
     logical, intent(in), optional :: requested(6)
     type(solve_control_t), intent(in), optional :: control
     type(error_t), intent(inout), optional :: err
+    integer, intent(in), optional :: kept_unknowns(:)
+    real(dp), intent(out), optional :: kept(:, :)
+    real(dp), intent(in), optional :: initial_guess(:, :)
     logical :: computed(6), loaded(6), saving, report
     type(saved_solve_t) :: saved(6)
     type(run_context_t) :: ctx
@@ -132,6 +139,7 @@ contains
     nb = size(projection, 1)
     n_total = size(centres, 2, kind=i8)
     ctx = make_run_context(comm)
+    if (present(kept)) kept = 0.0_dp   ! motions not computed
     report = .false.
     checkpoint_file = ''
     label = 'solve'
@@ -153,6 +161,9 @@ contains
     end if
     PetscCallA(KSPSetTolerances(ksp, relative_tolerance, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
+    if (present(initial_guess)) then
+      PetscCallA(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE, ierr))
+    end if
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
     do motion = 1, 6
@@ -232,7 +243,13 @@ contains
       end if
       if (stats%source(motion) == 0 .and. .not. loaded(motion)) then
         started = MPI_Wtime()
-        PetscCallA(VecZeroEntries(solution(motion), ierr))
+        if (present(initial_guess)) then
+          PetscCallA(VecGetArrayF90(solution(motion), values, ierr))
+          values = initial_guess(:, motion)
+          PetscCallA(VecRestoreArrayF90(solution(motion), values, ierr))
+        else
+          PetscCallA(VecZeroEntries(solution(motion), ierr))
+        end if
         PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
         PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
         PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
@@ -258,6 +275,13 @@ contains
       end if
       stats%iterations(motion) = int(iterations)
       stats%converged_reason(motion) = int(reason)
+      if (present(kept_unknowns) .and. present(kept)) then
+        PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
+        do i = 1, n_local
+          kept(size(kept_unknowns) * (i - 1) + 1:size(kept_unknowns) * i, motion) = values(nb * (i - 1) + kept_unknowns)
+        end do
+        PetscCallA(VecRestoreArrayReadF90(solution(motion), values, ierr))
+      end if
       if (present(bead_forces)) then
         PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
         do i = 1, n_local
