@@ -73,6 +73,7 @@ contains
         merge(default_shell_layers, 0, on_lattice .and. .not. config%hydrodynamics%bead_forces)
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%use_symmetry = config%hydrodynamics%use_symmetry
+      settings%companion = config%hydrodynamics%error_estimate
       settings%motions = config%hydrodynamics%motion_requested
       settings%order = config%hydrodynamics%multipole_order
       settings%potential_order = config%hydrodynamics%potential_order

@@ -78,6 +78,9 @@ module beadmob_input_config
     !> Solve only one rigid motion per orbit of the symmetries of the bead set, derive the others
     !> (exact; motion_symmetry.F90): 2 of 6 solves for a sphere, 4 for a four-fold axis.
     logical :: use_symmetry = .true.
+    !> The error bar: also solve the companion of order L - 1 and estimate the truncation error
+    !> from the two (error_estimate.f90, theory.md T14; about 1.2x the run time). Needs L >= 2.
+    logical :: error_estimate = .true.
     !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the
     !> committed benchmark data say reach it choose L, the shell and the Krylov tolerance
     !> (accuracy_choice.f90). The command-line option -accuracy overrides it.
@@ -190,13 +193,13 @@ contains
     type(hydrodynamics_config_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, shell_layers, status
-    logical :: lubrication, bead_forces, use_symmetry
+    logical :: lubrication, bead_forces, use_symmetry, error_estimate
     real(dp) :: lubrication_cutoff, accuracy, krylov_rtol
     character(len=1024) :: cache_file
     character(len=64) :: motions
     character(len=512) :: message
     namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
-                             shell_layers, krylov_rtol, accuracy, use_symmetry, motions
+                             shell_layers, krylov_rtol, accuracy, use_symmetry, motions, error_estimate
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -211,6 +214,7 @@ contains
     cache_file = hydro%cache_file
     accuracy = hydro%accuracy
     use_symmetry = hydro%use_symmetry
+    error_estimate = hydro%error_estimate
     motions = hydro%motions
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
@@ -255,6 +259,7 @@ contains
     hydro%krylov_rtol = krylov_rtol
     hydro%accuracy = accuracy
     hydro%use_symmetry = use_symmetry
+    hydro%error_estimate = error_estimate
     hydro%motions = motions
     if (.not. err%failed) call parse_motions(motions, source, hydro%motion_requested, err)
   end subroutine read_hydrodynamics_group
@@ -495,6 +500,7 @@ contains
       '  shell_layers = ' // str(config%hydrodynamics%shell_layers) // new_line('a') // &
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
       '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
+      '  error_estimate = ' // merge('.true. ', '.false.', config%hydrodynamics%error_estimate) // new_line('a') // &
       "  motions = '" // trim(config%hydrodynamics%motions) // "'" // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file, all_switches) // '/' // &
       new_line('a')

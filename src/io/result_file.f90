@@ -210,7 +210,7 @@ contains
       call write_attribute(group, 'accuracy_target_met', merge(1, 0, hydro%accuracy%target_met), err)
       call write_attribute(group, 'accuracy_reference', trim(hydro%accuracy%reference), err)
     end if
-    call write_estimate(ctx, group, hydro, err)
+    call write_estimate(ctx, group, config, hydro, err)
     call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
     call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
     call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
@@ -247,19 +247,27 @@ contains
 
   !> The error bar (error_estimate.f90, theory.md T14): the companion of order L - 1, the estimated
   !> error of the mobility and of the coefficients, the values extrapolated in L with theirs.
-  subroutine write_estimate(ctx, group, hydro, err)
+  subroutine write_estimate(ctx, group, config, hydro, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: group
+    type(run_config_t), intent(in) :: config
     type(friction_result_t), intent(in) :: hydro
     type(error_t), intent(inout) :: err
     type(error_estimate_t) :: e
+    character(len=:), allocatable :: missing
     e = hydro%estimate
     call write_attribute(group, 'error_estimate', merge(1, 0, e%available), err)
     if (.not. e%available) then
-      call write_attribute(group, 'error_estimate_method', 'none: ' // merge('order L = 1 has no lower order      ', &
-                                                                             'no companion solve or a NaN friction', &
-                                                                             hydro%companion_order == 0 .and. &
-                                                                             hydro%unknowns_per_bead == 6), err)
+      if (.not. config%hydrodynamics%error_estimate) then
+        missing = 'error_estimate = .false. in the input'
+      else if (config%hydrodynamics%multipole_order < 2) then
+        missing = 'order L = 1 has no lower order to compare with'
+      else if (.not. all(config%hydrodynamics%motion_requested)) then
+        missing = 'not all six motions were computed'
+      else
+        missing = 'the friction is not finite'
+      end if
+      call write_attribute(group, 'error_estimate_method', 'none: ' // missing, err)
       return
     end if
     call write_attribute(group, 'error_estimate_method', 'order L against the companion of order L - 1 on the ' // &

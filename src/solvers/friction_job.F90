@@ -76,7 +76,7 @@ module beadmob_friction_job
     !> (0 = never; -1: given but not a number >= 1, an error)
     integer :: stop_after_solves = 0
     !> The companion solve of order L - 1 on the same beads (theory.md T14), from which the
-    !> driver estimates the truncation error of order L; needs L >= 2.
+    !> driver estimates the truncation error of order L; needs L >= 2 and all six motions.
     logical :: companion = .true.
   end type friction_settings_t
 
@@ -202,7 +202,7 @@ contains
     end do
     start = MPI_Wtime()
     report = settings%progress .and. ctx%rank == 0
-    with_companion = settings%companion .and. settings%order >= 2
+    with_companion = settings%companion .and. settings%order >= 2 .and. all(settings%motions)
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%order, settings%potential_order)
     result%unknowns_per_bead = basis%size
