@@ -299,6 +299,13 @@ def coefficients_summary(c: Coefficients) -> dict[str, Any]:
         "friction": c.friction, "run_lubrication": c.run_lubrication,
         "all_converged": c.all_converged,
         "dimensionless_body_mobility": c.dimensionless_body_mobility,
+        "error_bar": None if c.error_bar is None else {
+            "companion_order": c.error_bar.companion_order,
+            "errors": dict(zip(COEFFICIENT_NAMES, c.error_bar.errors)),
+            "scaled_errors": dict(zip(COEFFICIENT_NAMES, c.error_bar.scaled_errors)),
+            "extrapolated": dict(zip(COEFFICIENT_NAMES, c.error_bar.extrapolated)),
+            "extrapolated_errors": dict(zip(COEFFICIENT_NAMES, c.error_bar.extrapolated_errors)),
+            "largest": c.error_bar.largest, "largest_extrapolated": c.error_bar.largest_extrapolated},
     }
 
 
@@ -317,10 +324,19 @@ def run_coefficients(arguments, out: TextIO) -> int:
                 if c.friction == "multipole" else "")]
     if c.all_converged is False:
         lines.append("WARNING:          beadmob flagged the solves as not converged")
-    for name, value in c.as_dict().items():
+    bar = c.error_bar
+    for k, (name, value) in enumerate(c.as_dict().items()):
         paper = paper_counterpart(c.shape, c.reference_length)
         ref = f"   (paper: {getattr(paper, name):.3f})" if paper is not None else ""
-        lines.append(f"{name}:             {value: .6f}{ref}")
+        error = f" +- {bar.errors[k]:.6f}   extrapolated {bar.extrapolated[k]: .6f} +- " \
+                f"{bar.extrapolated_errors[k]:.6f}" if bar is not None else ""
+        lines.append(f"{name}:             {value: .6f}{error}{ref}")
+    if bar is not None:
+        lines.append(f"error bar:        estimated truncation error (companion of order {bar.companion_order}); "
+                     f"largest over the mobility {bar.largest:.2g} on the scale sqrt(M_ii M_jj), "
+                     f"extrapolated {bar.largest_extrapolated:.2g}")
+    else:
+        lines.append("error bar:        none in the file (L = 1, error_estimate off, or an older beadmob)")
     lines.append(f"|mu51/mu42|:      {_g(c.ratio_51_42)}")
     lines.append(f"(mu51+mu42)/|mu51|: {_g(c.sum_over_51)}")
     for name, axis in zip("xyz", c.body_axes):

@@ -89,6 +89,8 @@ class Coefficients:
     friction: str = "default"
     #: whether the run had the lubrication correction on (/hydrodynamics attribute lubrication)
     run_lubrication: bool | None = None
+    #: the run's own error bar (None when the file has no error estimate or another friction is used)
+    error_bar: "ErrorBar | None" = None
 
     def values(self) -> tuple[float, float, float, float, float]:
         return (self.mu11, self.mu22, self.mu33, self.mu42, self.mu51)
@@ -324,7 +326,67 @@ def compute_coefficients(
         all_converged=hydro.all_converged,
         friction=friction,
         run_lubrication=hydro.lubrication,
+        error_bar=_error_bar_of(result, axes, float(length), body, friction),
     )
+
+
+@dataclass(frozen=True)
+class ErrorBar:
+    """The error bar of a run (beadmob's docs/theory.md T14) in the frame of :class:`Coefficients`.
+
+    From the run's order-L mobility M and its companion's of order L - 1, M': with the step
+    s_ij = |M_ij - M'_ij| / sqrt(M_ii M_jj) and b_ij the largest step in the 3x3 block of (i, j),
+    the estimated error of entry (i, j) is max(f_entry s_ij, f_block b_ij) on the scale
+    sqrt(M_ii M_jj); the extrapolated value M + rho (M - M') has the estimated error
+    max(g_entry s_ij, g_block b_ij). The factors (f_entry, f_block, rho, g_entry, g_block) are the
+    file's attribute ``error_estimate_factors``, so this equals beadmob's own
+    ``coefficient_error`` in its frame (a test checks it).
+    """
+
+    companion_order: int
+    #: absolute estimated error of mu11 ... mu51 (coefficient units)
+    errors: tuple[float, ...]
+    extrapolated: tuple[float, ...]
+    extrapolated_errors: tuple[float, ...]
+    #: the same errors on the scale sqrt(M_ii M_jj) (relative for mu11 ... mu33)
+    scaled_errors: tuple[float, ...]
+    #: largest estimated error over the 36 entries of the mobility, on that scale
+    largest: float
+    largest_extrapolated: float
+
+
+#: (row, column) of the dimensionless body mobility behind mu11, mu22, mu33, mu42, mu51
+COEFFICIENT_ENTRIES = ((0, 0), (1, 1), (2, 2), (3, 1), (4, 0))
+
+
+def error_bar(body: np.ndarray, companion_body: np.ndarray, factors, companion_order: int) -> ErrorBar:
+    """The :class:`ErrorBar` of two dimensionless body mobilities of one run (orders L, L - 1)."""
+    entry, block_factor, rho, ext_entry, ext_block = (float(f) for f in factors)
+    diagonal = np.sqrt(np.abs(np.diag(body)))
+    scale = np.outer(diagonal, diagonal)
+    step = np.abs(body - companion_body) / scale
+    block = np.zeros((6, 6))
+    for i in range(6):
+        for j in range(6):
+            block[i, j] = step[3 * (i // 3):3 * (i // 3) + 3, 3 * (j // 3):3 * (j // 3) + 3].max()
+    scaled = np.maximum(entry * step, block_factor * block)
+    extrapolated = body + rho * (body - companion_body)
+    scaled_ext = np.maximum(ext_entry * step, ext_block * block)
+    pick = (lambda m: tuple(float(m[i, j]) for i, j in COEFFICIENT_ENTRIES))
+    return ErrorBar(companion_order=companion_order, errors=pick(scaled * scale), extrapolated=pick(extrapolated),
+                    extrapolated_errors=pick(scaled_ext * scale), scaled_errors=pick(scaled),
+                    largest=float(scaled.max()), largest_extrapolated=float(scaled_ext.max()))
+
+
+def _error_bar_of(result: BeadResult, axes: np.ndarray, length: float, body: np.ndarray,
+                  friction: str) -> ErrorBar | None:
+    """The run's error bar in this frame, when the file has one for the friction used."""
+    hydro = result.hydrodynamics
+    factors = hydro.attributes.get("error_estimate_factors")
+    if friction != "default" or hydro.companion_friction is None or factors is None:
+        return None
+    companion = dimensionless(in_frame(np.linalg.inv(hydro.companion_friction), axes), length)
+    return error_bar(body, companion, np.ravel(factors), int(hydro.attributes.get("companion_order", 0)))
 
 
 def pattern_mobility(mu11: float, mu22: float, mu33: float, mu42: float, mu51: float) -> np.ndarray:

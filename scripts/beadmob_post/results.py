@@ -59,6 +59,9 @@ class Hydrodynamics:
     #: symmetric, and the mobility about it (input axes); None in older files.
     centre_of_mobility: np.ndarray | None = None
     mobility_at_centre_of_mobility: np.ndarray | None = None
+    #: The companion friction of order L - 1 on the same beads (input coordinates, same reference
+    #: point), from which the run's error bar is made; None when the run had no error estimate.
+    companion_friction: np.ndarray | None = None
 
     @property
     def multipole_order(self) -> int | None:
@@ -269,6 +272,7 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
         multipole_coefficients=optional("multipole_coefficients", (5,)),
         centre_of_mobility=optional("centre_of_mobility", (3,)),
         mobility_at_centre_of_mobility=optional("mobility_at_centre_of_mobility", (6, 6)),
+        companion_friction=optional("companion_friction", (6, 6)),
     )
 
 

@@ -54,6 +54,23 @@ class Row:
             return {**base, "ratio_51_42": None, "sum_over_51": None}
         return {**c.as_dict(), "ratio_51_42": c.ratio_51_42, "sum_over_51": c.sum_over_51}
 
+    @property
+    def errors(self) -> dict[str, float | None]:
+        """The run's estimated error of each coefficient (None without an error bar)."""
+        bar = None if self.coefficients is None else self.coefficients.error_bar
+        if bar is None:
+            return dict.fromkeys(COEFFICIENT_NAMES)
+        return dict(zip(COEFFICIENT_NAMES, bar.errors))
+
+    @property
+    def extrapolated(self) -> dict[str, float | None]:
+        """The coefficients extrapolated in L and their estimated errors (None without)."""
+        bar = None if self.coefficients is None else self.coefficients.error_bar
+        if bar is None:
+            return {**dict.fromkeys(COEFFICIENT_NAMES), **dict.fromkeys(f"{n}_error" for n in COEFFICIENT_NAMES)}
+        return {**dict(zip(COEFFICIENT_NAMES, bar.extrapolated)),
+                **{f"{n}_error": e for n, e in zip(COEFFICIENT_NAMES, bar.extrapolated_errors)}}
+
 
 def collect(paths: Sequence[str | Path], allow_unconverged: bool = False,
             friction: str = "default") -> list[Row]:
@@ -91,6 +108,14 @@ def _number(value: float | None, digits: int = 4) -> str:
     return f"{value:.{digits}f}"
 
 
+def _with_error(value: float | None, error: float | None, fmt: str, digits: int = 4) -> str:
+    """'0.2688 +- 0.0008' (md; $\\pm$ in tex), or the value alone without an error bar."""
+    if error is None or value is None:
+        return _number(value, digits)
+    sign = r" $\pm$ " if fmt == "tex" else " ± "
+    return f"{value:.{digits}f}{sign}{error:.{digits}f}"
+
+
 def _method(row: Row) -> tuple[str, str, str]:
     c = row.coefficients
     if c is None:
@@ -101,7 +126,9 @@ def _method(row: Row) -> tuple[str, str, str]:
 
 
 HEADER = ["object", "L/d", "N", *COEFFICIENT_NAMES, "|mu51/mu42|", "(mu51+mu42)/|mu51|",
-          "family", "multipole_order", "lubrication", "off_pattern", "friction", "file"]
+          "family", "multipole_order", "lubrication", "off_pattern", "friction", "file",
+          *[f"{n}_error" for n in COEFFICIENT_NAMES], *[f"{n}_extrapolated" for n in COEFFICIENT_NAMES],
+          *[f"{n}_extrapolated_error" for n in COEFFICIENT_NAMES]]
 
 #: The /hydrodynamics dataset each ``--friction`` choice reads.
 FRICTION_DATASETS = {"default": "friction", "multipole": "multipole_friction"}
@@ -127,6 +154,14 @@ def method_note(rows: Sequence[Row]) -> str:
     return f"beadmob: {'; '.join(described)}." if described else ""
 
 
+def error_note(rows: Sequence[Row]) -> str:
+    """What the +- means, when a row has an error bar."""
+    if not any(row.coefficients is not None and row.coefficients.error_bar is not None for row in rows):
+        return ""
+    return (" +-: the run's own estimated truncation error (its order L against its companion of order "
+            "L - 1, beadmob docs/theory.md T14).")
+
+
 def format_table(rows: Sequence[Row], fmt: str) -> str:
     """The batch table as ``csv`` (full precision), ``md`` or ``tex`` (paper's rounding)."""
     if fmt == "csv":
@@ -144,6 +179,10 @@ def format_table(rows: Sequence[Row], fmt: str) -> str:
                 row.family or "", *_method(row),
                 "" if row.coefficients is None else FRICTION_DATASETS[row.coefficients.friction],
                 row.path,
+                *["" if row.errors[n] is None else repr(row.errors[n]) for n in COEFFICIENT_NAMES],
+                *["" if row.extrapolated[n] is None else repr(row.extrapolated[n]) for n in COEFFICIENT_NAMES],
+                *["" if row.extrapolated[f"{n}_error"] is None else repr(row.extrapolated[f"{n}_error"])
+                  for n in COEFFICIENT_NAMES],
             ])
         return out.getvalue()
     cells = []
@@ -152,20 +191,20 @@ def format_table(rows: Sequence[Row], fmt: str) -> str:
         cells.append([
             row.label, "" if row.length_over_d is None else f"{row.length_over_d:g}",
             str(row.n_beads),
-            *[_number(values[n], 4) for n in COEFFICIENT_NAMES],
+            *[_with_error(values[n], row.errors[n], fmt) for n in COEFFICIENT_NAMES],
             _number(values["ratio_51_42"], 3), _number(values["sum_over_51"], 3),
             row.family or "", *_method(row)[:2],
         ])
     if fmt == "md":
         header = ["Object", "L/d", "N", *COEFFICIENT_NAMES, "\\|mu51/mu42\\|",
                   "(mu51+mu42)/\\|mu51\\|", "family", "L", "lubrication"]
-        note = method_note(rows)
+        note = method_note(rows) + error_note(rows)
         return _markdown(header, cells) + (f"\n{note}\n" if note else "")
     if fmt == "tex":
         header = ["Object (shape)", "$L/d$", "Number of beads",
                   *[_LATEX_NAMES[n] for n in COEFFICIENT_NAMES], r"$|\mu_{51}/\mu_{42}|$",
                   r"$\frac{\mu_{51}+\mu_{42}}{|\mu_{51}|}$", "family", "order $L$", "lubrication"]
-        note = method_note(rows)
+        note = method_note(rows) + error_note(rows)
         caption = ("Dimensionless mobility coefficients (eq.~(matrices) of the settlers paper) "
                    "computed by beadmob." + (" " + _latex_escape(note) if note else ""))
         return _latex(header, cells, caption, "tab:beadmob_coefficients")
@@ -182,8 +221,10 @@ def relative_difference(value: float | None, reference: float) -> float | None:
 COMPARED = ("L/d", "N", *COEFFICIENT_NAMES)
 
 
-def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | None, float, float | None]]]]:
-    """For each row with a paper counterpart: (quantity, beadmob, paper, relative difference)."""
+def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | None, float, float | None,
+                                                                  float | None]]]]:
+    """For each row with a paper counterpart: (quantity, beadmob, paper, relative difference, the
+    run's estimated error of the beadmob value or None)."""
     compared = []
     for row in rows:
         paper = row.paper
@@ -193,7 +234,7 @@ def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | N
         items = [("L/d", row.length_over_d, float(paper.length_over_d)),
                  ("N", float(row.n_beads), float(paper.n_beads))]
         items += [(name, values[name], value) for name, value in zip(COEFFICIENT_NAMES, paper.coefficients())]
-        compared.append((row, [(q, v, p, relative_difference(v, p)) for q, v, p in items]))
+        compared.append((row, [(q, v, p, relative_difference(v, p), row.errors.get(q)) for q, v, p in items]))
     return compared
 
 
@@ -206,19 +247,19 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
         writer.writerow(["object", "quantity", "beadmob", "paper", "relative_difference",
-                         "multipole_order", "lubrication", "friction", "file"])
+                         "multipole_order", "lubrication", "friction", "file", "estimated_error"])
         for row, items in compared:
             order, lubrication, _ = _method(row)
             friction = "" if row.coefficients is None else FRICTION_DATASETS[row.coefficients.friction]
-            for quantity, value, paper_value, difference in items:
+            for quantity, value, paper_value, difference, error in items:
                 writer.writerow([row.label, quantity, "" if value is None else repr(value),
                                  repr(paper_value), "" if difference is None else repr(difference),
-                                 order, lubrication, friction, row.path])
+                                 order, lubrication, friction, row.path, "" if error is None else repr(error)])
         return out.getvalue()
 
-    def cell(quantity: str, value, paper_value, difference) -> str:
+    def cell(quantity: str, value, paper_value, difference, error) -> str:
         integer = quantity in ("L/d", "N")
-        shown = "n/a" if value is None else (f"{value:g}" if integer else f"{value:.4f}")
+        shown = "n/a" if value is None else (f"{value:g}" if integer else _with_error(value, error, fmt))
         paper_text = f"{paper_value:g}" if integer else f"{paper_value:.3f}"
         diff = "" if difference is None else f"; {100 * difference:+.{2 if integer else 1}f} %"
         if fmt == "tex":
@@ -231,7 +272,7 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
         header = ["Object", *COMPARED, "L"]
         beadmob = method_note([row for row, _ in compared])
         return (_markdown(header, cells)
-                + f"\nCells: beadmob (paper; relative difference). {note}"
+                + f"\nCells: beadmob (paper; relative difference). {note}" + error_note([row for row, _ in compared])
                 + (f" {beadmob}" if beadmob else "") + "\n")
     if fmt == "tex":
         header = ["Object", "$L/d$", "$N$", *[_LATEX_NAMES[n] for n in COEFFICIENT_NAMES], "order $L$"]

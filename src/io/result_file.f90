@@ -209,6 +209,8 @@ contains
       call write_attribute(group, 'accuracy_expected_error', hydro%accuracy%expected_error, err)
       call write_attribute(group, 'accuracy_target_met', merge(1, 0, hydro%accuracy%target_met), err)
       call write_attribute(group, 'accuracy_reference', trim(hydro%accuracy%reference), err)
+      call write_attribute(group, 'accuracy_estimated_error', hydro%accuracy%estimated_error, err)
+      call write_attribute(group, 'accuracy_raised_order', hydro%accuracy%raised_order, err)
     end if
     call write_estimate(ctx, group, config, hydro, err)
     call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
