@@ -84,7 +84,8 @@ contains
     if (ranks_given) oversubscription = 1.0_dp
     estimate = estimate_job(size(centres, 2, kind=i8), solve_beads, spans, on_lattice, settings%order, &
                             settings%potential_order, trim(operator_name), ranks, n_solves, &
-                            settings%shell_layers > 0 .and. on_lattice, oversubscription)
+                            settings%shell_layers > 0 .and. on_lattice, oversubscription, &
+                            settings%companion .and. all(settings%motions))
 
     ! What a rank may use: the node's available memory shared by the ranks on it (the least over
     ! the nodes), or -memory_limit.
@@ -159,7 +160,8 @@ contains
     end if
     write (*, '(a)') '  expected wall time:   ' // seconds_text(e%seconds_total) // ' (blocks ' // &
       seconds_text(e%seconds_blocks) // ', solve ' // seconds_text(e%seconds_solve) // ': ' // str(e%n_solves) // &
-      ' solve(s) of ~' // str(e%iterations) // ' CG iterations)'
+      ' solve(s) of ~' // str(e%iterations) // ' CG iterations' // &
+      either(e%seconds_companion > 0, ', error bar''s companion ' // seconds_text(e%seconds_companion), '') // ')'
   end subroutine print_estimate
 
   function breakdown(e) result(text)
@@ -168,7 +170,7 @@ contains
     text = 'base ' // gib_text(e%base) // ', geometry ' // gib_text(e%geometry) // ', blocks ' // gib_text(e%blocks) // &
            ', ' // either(e%operator_name == 'fft', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
            ', FFT buffer ' // gib_text(e%fft_buffer) // ', transposes ' // gib_text(e%transposes) // &
-           ', vectors ' // gib_text(e%vectors)
+           ', vectors ' // gib_text(e%vectors) // either(e%companion > 0, ', companion ' // gib_text(e%companion), '')
   end function breakdown
 
   pure function either(condition, if_true, if_false) result(text)

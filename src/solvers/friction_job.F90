@@ -76,8 +76,9 @@ module beadmob_friction_job
     !> (0 = never; -1: given but not a number >= 1, an error)
     integer :: stop_after_solves = 0
     !> The companion solve of order L - 1 on the same beads (theory.md T14), from which the
-    !> driver estimates the truncation error of order L; needs L >= 2 and all six motions.
-    logical :: companion = .true.
+    !> driver estimates the truncation error of order L; needs L >= 2 and all six motions. Off in
+    !> the library; the driver sets it from &hydrodynamics error_estimate (default on).
+    logical :: companion = .false.
   end type friction_settings_t
 
   type :: friction_result_t

@@ -4,9 +4,12 @@
 !> refuses, before allocating, a job that cannot fit (docs/scaling.md, "Know before you run").
 !>
 !> Memory per rank, largest rank (docs/scaling.md lists what each term holds):
-!>   base + geometry N + kernel + buffer + transposes + max(canonical, vectors)       (FFT operator)
+!>   base + geometry N + kernel + buffer + transposes + max(canonical, vectors, companion)
+!>                                                                                  (FFT operator)
 !>   base + geometry N + canonical + expanded box table + vectors                     (direct, lattice)
 !>   base + geometry N + N n_local nb^2 8 B + vectors                                 (direct, off-lattice)
+!> (the companion of the error bar, theory.md T14: its FFT buffer, transposes, vectors and start,
+!> or for the direct operator its sub-blocks, while the order-L operator is still held)
 !> with the FFT sizes of FFTW's slab decomposition (ceil(n/P) planes on the largest rank). Time:
 !> quadrature per canonical block, kernel fill per site and entry, FFT and kernel product per
 !> product, CG iterations ~ a N^0.17: rates measured on this project's 2-core machine
@@ -37,6 +40,9 @@ module beadmob_job_estimate
   !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
   !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling.md).
   real(dp), parameter :: transpose_fraction = 0.5_dp
+  !> The companion's iterations relative to the order-L solve's (started from its solution:
+  !> 13, 10, 16, 18 against 17, 14, 22, 19 on the paper cone)
+  real(dp), parameter :: companion_iteration_ratio = 0.8_dp
 
   type :: job_estimate_t
     integer(i8) :: n_beads = 0, solve_beads = 0, unknowns = 0
@@ -46,7 +52,8 @@ module beadmob_job_estimate
     integer(i8) :: canonical_blocks = 0       ! blocks by quadrature (lattice models)
     !> Per rank, largest rank (bytes)
     real(dp) :: base = 0, geometry = 0, blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, vectors = 0, peak = 0
-    real(dp) :: seconds_blocks = 0, seconds_solve = 0, seconds_total = 0
+    real(dp) :: companion = 0                 ! the error bar's companion (0: none)
+    real(dp) :: seconds_blocks = 0, seconds_solve = 0, seconds_companion = 0, seconds_total = 0
   end type job_estimate_t
 
 contains
@@ -67,18 +74,19 @@ contains
   !> operator_name: 'fft' or 'direct' as chosen for the job; n_solves: Krylov solves (6, fewer
   !> with motions or symmetries).
   !> shell: a shell model (fewer CG iterations); oversubscription: ranks per processor on the
-  !> busiest node (>= 1), which the times scale by.
+  !> busiest node (>= 1), which the times scale by. companion: the error bar's companion solve of
+  !> order L - 1 is made too.
   pure function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                             n_ranks, n_solves, shell, oversubscription) result(e)
+                             n_ranks, n_solves, shell, oversubscription, companion) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
-    logical, intent(in) :: shell
+    logical, intent(in) :: shell, companion
     real(dp), intent(in) :: oversubscription
     logical, intent(in) :: on_lattice
     character(len=*), intent(in) :: operator_name
     type(job_estimate_t) :: e
     real(dp) :: nb, packed, local_beads, block_bytes, sites, frequencies, real_planes, freq_planes, quadrature, &
-                products, product_seconds, extent(3)
+                products, product_seconds, extent(3), nb_low, low_products, low_product_seconds, low_buffer
     integer :: widths(3)
 
     e%n_beads = n_beads
@@ -103,6 +111,9 @@ contains
       e%iterations = ceiling(full_iterations(1) * real(max(solve_beads, 1_i8), dp)**full_iterations(2))
     end if
     products = real(n_solves, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
+    nb_low = 0
+    if (companion .and. order >= 2) nb_low = real(basis_size(order - 1, max(potential_order - 1, 0)), dp)
+    low_products = real(n_solves, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
 
     if (on_lattice) then
       ! Canonical displacements: c(k) <= the k-th largest span.
@@ -123,13 +134,18 @@ contains
       e%kernel = 8 * packed * frequencies
       e%fft_buffer = 16 * nb * max(frequencies, real_planes * e%fft_box(2) * (e%fft_box(1) / 2 + 1))
       if (e%n_ranks > 1) e%transposes = transpose_fraction * e%fft_buffer
-      e%peak = e%base + e%geometry + e%kernel + e%fft_buffer + e%transposes + max(e%blocks, e%vectors)
+      low_buffer = e%fft_buffer * nb_low / nb
+      if (nb_low > 0) e%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, e%n_ranks > 1) + &
+                                    (vectors_per_unknown + 6) * 8 * local_beads * nb_low
+      e%peak = e%base + e%geometry + e%kernel + e%fft_buffer + e%transposes + max(e%blocks, e%vectors, e%companion)
       widths = 2 * spans + 1
       e%seconds_blocks = quadrature * e%canonical_blocks / e%n_ranks &
                          + fill_seconds * packed * product(real(widths, dp)) / e%n_ranks &
                          + ceiling(packed / nb) * fft_seconds * nb * sites * log(sites) / log(2.0_dp) / e%n_ranks
       product_seconds = (2 * fft_seconds * nb * sites * log(sites) / log(2.0_dp) &
                          + multiply_seconds * packed * sites / 2) / e%n_ranks
+      low_product_seconds = (2 * fft_seconds * nb_low * sites * log(sites) / log(2.0_dp) &
+                             + multiply_seconds * nb_low * (nb_low + 1) / 2 * sites / 2) / e%n_ranks
     else
       if (on_lattice) then
         widths = 2 * spans + 1
@@ -139,12 +155,16 @@ contains
         e%kernel = block_bytes * real(solve_beads, dp) * local_beads   ! one block per pair of this rank's rows
         e%seconds_blocks = quadrature * real(solve_beads, dp) * local_beads
       end if
-      e%peak = e%base + e%geometry + e%blocks + e%kernel + e%vectors
+      ! The companion copies its sub-blocks while the order-L ones are held.
+      if (nb_low > 0) e%companion = e%kernel * (nb_low / nb)**2 + (vectors_per_unknown + 6) * 8 * local_beads * nb_low
+      e%peak = e%base + e%geometry + e%blocks + e%kernel + max(e%vectors, e%companion)
       product_seconds = direct_seconds * nb**2 * real(solve_beads, dp) * local_beads
+      low_product_seconds = product_seconds * (nb_low / nb)**2
     end if
     e%seconds_blocks = e%seconds_blocks * max(oversubscription, 1.0_dp)
     e%seconds_solve = products * product_seconds * max(oversubscription, 1.0_dp)
-    e%seconds_total = e%seconds_blocks + e%seconds_solve
+    if (nb_low > 0) e%seconds_companion = low_products * low_product_seconds * max(oversubscription, 1.0_dp)
+    e%seconds_total = e%seconds_blocks + e%seconds_solve + e%seconds_companion
   end function estimate_job
 
   !> canonical_count of block_table, in 64-bit arithmetic: a box too large to build still gets
