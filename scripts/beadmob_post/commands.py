@@ -26,7 +26,7 @@ from beadmob_post.classify import (
     physical_times,
 )
 from beadmob_post.mobility import FRICTION_CHOICES, Coefficients, compute_coefficients
-from beadmob_post.paper import TAB_MOB_NUM, PaperBeadModel, paper_counterpart, paper_row
+from beadmob_post.paper import COEFFICIENT_NAMES, TAB_MOB_NUM, PaperBeadModel, paper_counterpart, paper_row
 from beadmob_post.results import load_result
 
 

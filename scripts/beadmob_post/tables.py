@@ -221,10 +221,9 @@ def relative_difference(value: float | None, reference: float) -> float | None:
 COMPARED = ("L/d", "N", *COEFFICIENT_NAMES)
 
 
-def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | None, float, float | None,
-                                                                  float | None]]]]:
-    """For each row with a paper counterpart: (quantity, beadmob, paper, relative difference, the
-    run's estimated error of the beadmob value or None)."""
+def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | None, float, float | None]]]]:
+    """For each row with a paper counterpart: (quantity, beadmob, paper, relative difference); the
+    run's estimated error of a coefficient is ``row.errors``."""
     compared = []
     for row in rows:
         paper = row.paper
@@ -234,7 +233,7 @@ def comparison(rows: Sequence[Row]) -> list[tuple[Row, list[tuple[str, float | N
         items = [("L/d", row.length_over_d, float(paper.length_over_d)),
                  ("N", float(row.n_beads), float(paper.n_beads))]
         items += [(name, values[name], value) for name, value in zip(COEFFICIENT_NAMES, paper.coefficients())]
-        compared.append((row, [(q, v, p, relative_difference(v, p), row.errors.get(q)) for q, v, p in items]))
+        compared.append((row, [(q, v, p, relative_difference(v, p)) for q, v, p in items]))
     return compared
 
 
@@ -251,7 +250,8 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
         for row, items in compared:
             order, lubrication, _ = _method(row)
             friction = "" if row.coefficients is None else FRICTION_DATASETS[row.coefficients.friction]
-            for quantity, value, paper_value, difference, error in items:
+            for quantity, value, paper_value, difference in items:
+                error = row.errors.get(quantity)
                 writer.writerow([row.label, quantity, "" if value is None else repr(value),
                                  repr(paper_value), "" if difference is None else repr(difference),
                                  order, lubrication, friction, row.path, "" if error is None else repr(error)])
@@ -266,7 +266,7 @@ def format_comparison(rows: Sequence[Row], fmt: str) -> str:
             diff = diff.replace("%", r"\%")
         return f"{shown} ({paper_text}{diff})"
 
-    cells = [[row.label, *[cell(*item) for item in items], _method(row)[0]]
+    cells = [[row.label, *[cell(*item, row.errors.get(item[0])) for item in items], _method(row)[0]]
              for row, items in compared]
     if fmt == "md":
         header = ["Object", *COMPARED, "L"]
