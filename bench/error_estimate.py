@@ -143,7 +143,8 @@ def read(name, label):
             if key in g.attrs:
                 out[key] = float(g.attrs[key])
         out["seconds"] = float(g.attrs["phase_seconds"][-1])
-        names = [n.decode() if isinstance(n, bytes) else str(n) for n in g.attrs["phase_names"]]
+        names = g.attrs["phase_names"]
+        names = (names.decode() if isinstance(names, bytes) else str(names)).split()
         out["phases"] = dict(zip(names, np.asarray(g.attrs["phase_seconds"], dtype=float)))
         return out
 
