@@ -55,8 +55,8 @@ def write_result_file(
     ``omit`` lists HDF5 paths (e.g. ``"geometry/positions"``) left out of the file, to test
     the reader's errors; ``file_format=None`` leaves out the root attribute ``format``.
     ``hydrodynamics`` writes a /hydrodynamics group: key ``friction`` (6x6, required),
-    ``mobility`` (default: the inverse of the friction; None leaves it out), every other key
-    becomes an attribute (e.g. ``all_converged=0``).
+    ``mobility`` (default: the inverse of the friction; None leaves it out), ``companion_friction``
+    (a dataset), every other key becomes an attribute (e.g. ``all_converged=0``).
     """
     positions = np.asarray(positions, dtype=float)
     axes = np.eye(3) if body_axes is None else np.asarray(body_axes, dtype=float)
@@ -113,6 +113,9 @@ def write_hydrodynamics(handle: h5py.File, items: dict) -> None:
         mobility = np.linalg.inv(friction)
     if mobility is not None:
         group["mobility"] = np.asarray(mobility, dtype=float)
+    companion = items.pop("companion_friction", None)   # the error bar's companion (beadmob T14)
+    if companion is not None:
+        group["companion_friction"] = np.asarray(companion, dtype=float)
     attributes = {"multipole_order": 1, "lubrication": 0, "all_converged": 1,
                   "method": "synthetic", "reference_point": "centre of mass"}
     attributes.update(items)

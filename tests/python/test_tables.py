@@ -17,7 +17,7 @@ from beadmob_post.tables import (
     format_table,
     relative_difference,
 )
-from test_mobility import LENGTH, dimensionless_pattern, hydro_file
+from test_mobility import LENGTH, dimensionless_pattern, hydro_file, model_mobility
 
 PAPER_SHAPES = [row.shape for row in TAB_MOB_NUM]
 
@@ -124,3 +124,38 @@ def test_real_paper_shapes_compare_their_geometry(beadmob_output_dir):
     has_hydro = [row for row in rows if row.coefficients is not None]
     for row in has_hydro:  # once the paper shapes carry /hydrodynamics
         assert row.family == "settler"
+
+
+def test_error_bar_in_table_and_comparison(make_result_file):
+    # A run whose companion differs from it in mu11 only, by delta: beadmob's estimate (theory.md
+    # T14, factors f = 0.6, 0.03, rho = 0.15, g = 0.4, 0.03) is then, worked out by hand,
+    #   mu11: 0.6 delta;  mu22, mu33: 0.03 (delta / mu11) mu_kk (the tt block's floor);
+    #   mu42, mu51: 0 (their blocks do not differ); extrapolated mu11 = mu11 + 0.15 delta.
+    row = paper_row("arrowhead")
+    mu = dict(zip(("mu11", "mu22", "mu33", "mu42", "mu51"), row.coefficients()))
+    body = dimensionless_pattern(mu)
+    delta = 0.004
+    companion = body.copy()
+    companion[0, 0] -= delta
+    companion_friction = np.linalg.inv(model_mobility(companion, np.eye(3), row.length_over_d))
+    path = hydro_file(make_result_file, body, np.eye(3), np.eye(3), name="arrow.h5", shape_name="arrowhead",
+                      reference_length=row.length_over_d,
+                      hydro={"companion_friction": companion_friction, "companion_order": 1,
+                             "error_estimate_factors": np.array([0.6, 0.03, 0.15, 0.4, 0.03])})
+    rows = collect([path])
+    errors = rows[0].errors
+    assert errors["mu11"] == pytest.approx(0.6 * delta, rel=1e-9)
+    assert errors["mu22"] == pytest.approx(0.03 * delta / row.mu11 * row.mu22, rel=1e-9)
+    assert errors["mu33"] == pytest.approx(0.03 * delta / row.mu11 * row.mu33, rel=1e-9)
+    assert errors["mu42"] == pytest.approx(0.0, abs=1e-15) and errors["mu51"] == pytest.approx(0.0, abs=1e-15)
+    assert rows[0].extrapolated["mu11"] == pytest.approx(row.mu11 + 0.15 * delta, rel=1e-9)
+    assert rows[0].extrapolated["mu11_error"] == pytest.approx(0.4 * delta, rel=1e-9)
+
+    markdown = format_table(rows, "md")
+    assert f"{row.mu11:.4f} ± {0.6 * delta:.4f}" in markdown and "+-: the run's own" in markdown
+    parsed = list(csv.DictReader(io.StringIO(format_table(rows, "csv"))))
+    assert float(parsed[0]["mu11_error"]) == pytest.approx(0.6 * delta, rel=1e-9)
+    assert f"{row.mu11:.4f} ± {0.6 * delta:.4f} ({row.mu11:.3f}" in format_comparison(rows, "md")
+    compared = list(csv.DictReader(io.StringIO(format_comparison(rows, "csv"))))
+    assert float(next(r for r in compared if r["quantity"] == "mu11")["estimated_error"]) == \
+        pytest.approx(0.6 * delta, rel=1e-9)
