@@ -383,11 +383,7 @@ contains
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
-      if (result%operator_name == 'fft') then
-        call destroy_fft_operator(fft_low, low_matrix)
-      else
-        call destroy_bead_operator(direct_low, low_matrix)
-      end if
+      call destroy_operator(fft_low, direct_low, low_matrix)
     end subroutine companion_friction
 
     !> friction += the lubrication correction of order (order, potential_order): every rank gets
@@ -413,12 +409,20 @@ contains
       if (.not. allocated(bead_blocks)) then
         PetscCallA(MatDestroy(near_field, ierr))
       end if
-      if (result%operator_name == 'fft') then
-        call destroy_fft_operator(fft_op, matrix)
-      else
-        call destroy_bead_operator(direct_op, matrix)
-      end if
+      call destroy_operator(fft_op, direct_op, matrix)
     end subroutine release_operator
+
+    !> The operator of the kind this job uses (the order-L one or its companion) and its matrix.
+    subroutine destroy_operator(fft, direct, shell)
+      type(fft_operator_t), intent(inout) :: fft
+      type(bead_operator_t), intent(inout) :: direct
+      Mat, intent(inout) :: shell
+      if (result%operator_name == 'fft') then
+        call destroy_fft_operator(fft, shell)
+      else
+        call destroy_bead_operator(direct, shell)
+      end if
+    end subroutine destroy_operator
 
     !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
     subroutine mark(phase)
