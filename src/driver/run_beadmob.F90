@@ -8,6 +8,7 @@ module beadmob_run
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
   use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_shell_layers, is_set, &
+                                  default_estimate_order, &
                                   effective_input_text
   use beadmob_progress, only: progress_line
   use beadmob_checkpoint_file, only: checkpoint_suffix, remove_checkpoint
@@ -73,6 +74,9 @@ contains
         merge(default_shell_layers, 0, on_lattice .and. .not. config%hydrodynamics%bead_forces)
       settings%krylov_rtol = config%hydrodynamics%krylov_rtol
       settings%use_symmetry = config%hydrodynamics%use_symmetry
+      ! The error bar: as the input says, else up to default_estimate_order and for a target.
+      if (.not. config%hydrodynamics%error_estimate_given) config%hydrodynamics%error_estimate = &
+        config%hydrodynamics%multipole_order <= default_estimate_order .or. choice%target > 0.0_dp
       settings%companion = config%hydrodynamics%error_estimate
       settings%motions = config%hydrodynamics%motion_requested
       settings%order = config%hydrodynamics%multipole_order
@@ -297,6 +301,9 @@ contains
         'companion order L = ' // str(hydro%estimate%companion_order)
     else if (config%hydrodynamics%multipole_order == 1) then
       write (*, '(a)') '  estimated error: none at L = 1 (no lower order to compare with)'
+    else if (.not. config%hydrodynamics%error_estimate) then
+      write (*, '(a)') '  estimated error: not computed (error_estimate = .false.; on by default up to L = ' // &
+        str(default_estimate_order) // ', docs/theory.md T14)'
     end if
     if (len_trim(hydro%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(hydro%cache_file) // ': ' // &
       str(hydro%cached_blocks) // ' blocks read, ' // str(hydro%computed_blocks) // ' computed; lubrication ' // &

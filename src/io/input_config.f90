@@ -8,7 +8,7 @@ module beadmob_input_config
   use beadmob_strings, only: str
   implicit none
   private
-  public :: run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
+  public :: default_estimate_order, run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
   public :: default_output_path, built_in_source, default_shell_layers
 
   real(dp), parameter :: unset_real = -huge(1.0_dp)
@@ -19,6 +19,9 @@ module beadmob_input_config
   !> error against L = 3 (2.7e-3) is that of the full model (2.8e-3): at L = 2 the interior beads
   !> add truncation error (their contacts) and next to nothing to the rigid-body friction.
   integer, parameter :: default_shell_layers = 1
+  !> The error bar is on by default up to this order: its companion's cost grows towards the
+  !> order-L solve's with L (unknowns per bead (L - 1)/L), 1.2x the run at L = 2 and 3.
+  integer, parameter :: default_estimate_order = 4
   !> The `source` of a run without an input file.
   character(len=*), parameter :: built_in_source = 'built-in default'
   character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
@@ -79,8 +82,11 @@ module beadmob_input_config
     !> (exact; motion_symmetry.F90): 2 of 6 solves for a sphere, 4 for a four-fold axis.
     logical :: use_symmetry = .true.
     !> The error bar: also solve the companion of order L - 1 and estimate the truncation error
-    !> from the two (error_estimate.f90, theory.md T14; about 1.2x the run time). Needs L >= 2.
+    !> from the two (error_estimate.f90, theory.md T14). Needs L >= 2. When the input does not
+    !> set it, the driver turns it on up to L = default_estimate_order (where it costs at most
+    !> 1.3x the run without it, bench/error_estimate_cost.md) and for an accuracy target.
     logical :: error_estimate = .true.
+    logical :: error_estimate_given = .false.
     !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the
     !> committed benchmark data say reach it choose L, the shell and the Krylov tolerance
     !> (accuracy_choice.f90). The command-line option -accuracy overrides it.
@@ -220,6 +226,17 @@ contains
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
       return
+    end if
+    ! A logical has no "unset" value: read again from the other default to see whether the
+    ! input gives error_estimate.
+    hydro%error_estimate_given = .false.
+    if (error_estimate .eqv. hydro%error_estimate) then
+      error_estimate = .not. hydro%error_estimate
+      read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
+      hydro%error_estimate_given = error_estimate .eqv. hydro%error_estimate
+      error_estimate = hydro%error_estimate
+    else
+      hydro%error_estimate_given = .true.
     end if
     hydro%choices_given = is_set(multipole_order) .or. is_set(potential_order) .or. is_set(shell_layers) .or. &
                           is_set(krylov_rtol)

@@ -261,7 +261,7 @@ contains
     call write_attribute(group, 'error_estimate', merge(1, 0, e%available), err)
     if (.not. e%available) then
       if (.not. config%hydrodynamics%error_estimate) then
-        missing = 'error_estimate = .false. in the input'
+        missing = 'error_estimate = .false. (by the input, or by default above L = 4)'
       else if (config%hydrodynamics%multipole_order < 2) then
         missing = 'order L = 1 has no lower order to compare with'
       else if (.not. all(config%hydrodynamics%motion_requested)) then
