@@ -13,6 +13,7 @@ program test_input_config
   call test_round_trip()
   call test_errors()
   call test_run_switches()
+  call test_error_estimate_switch()
   call finish_tests(suite)
 
 contains
@@ -105,4 +106,19 @@ contains
     call check(suite, err%failed, "checkpoint = 'no' rejected")
     if (err%failed) call check(suite, index(err%message, "got ''no''") > 0, "checkpoint = 'no' named: " // err%message)
   end subroutine test_run_switches
+  !> error_estimate: whether the input gives it (either value) or leaves it to the driver's default.
+  subroutine test_error_estimate_switch()
+    type(run_config_t) :: config
+    type(error_t) :: err
+    character(len=*), parameter :: shape = "&shape name = 'sphere', radius = 2 /" // nl
+    call parse_input_text(shape // "&hydrodynamics multipole_order = 3 /", 'e.nml', config, err)
+    call check(suite, .not. err%failed .and. .not. config%hydrodynamics%error_estimate_given, &
+               'error_estimate left out: not given')
+    call parse_input_text(shape // "&hydrodynamics error_estimate = .true. /", 'e.nml', config, err)
+    call check(suite, config%hydrodynamics%error_estimate_given .and. config%hydrodynamics%error_estimate, &
+               'error_estimate = .true.: given, on')
+    call parse_input_text(shape // "&hydrodynamics error_estimate = .false. /", 'e.nml', config, err)
+    call check(suite, config%hydrodynamics%error_estimate_given .and. .not. config%hydrodynamics%error_estimate, &
+               'error_estimate = .false.: given, off')
+  end subroutine test_error_estimate_switch
 end program test_input_config
