@@ -2,8 +2,11 @@
 # The paper's Table tab_mob_num (settlers paper) recomputed: the seven paper shapes at L = 2 on
 # 2 ranks, $REPEATS runs each (default 3, wall times as medians) with the lubrication correction
 # on (cutoff given below), which also records the order-L friction alone. Writes
-# bench/paper_table.md and the result files to bench/paper_runs/. Needs a Release build
-# (scripts/build.sh). Extra PETSc options: $PAPER_OPTIONS (default none: beadmob's defaults).
+# bench/paper_table.md (or $PAPER_TABLE) and the result files to bench/paper_runs/. Needs a
+# Release build (scripts/build.sh; another build directory: $BUILD_DIR). Extra PETSc options:
+# $PAPER_OPTIONS; extra &hydrodynamics settings: $PAPER_HYDRO (default none: beadmob's defaults).
+#   bench/paper_table.md:        PAPER_HYDRO='shell_layers = 0, use_symmetry = .false.' (full model)
+#   bench/paper_table_shell1.md: PAPER_TABLE=bench/paper_table_shell1.md (the default settings)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 source "$root/scripts/mpi-env.sh"
@@ -18,7 +21,7 @@ for repeat in $(seq "$repeats"); do
   for s in "${shapes[@]}"; do
     # The shape file with its &run output redirected and the hydrodynamics settings of this table.
     sed -e "s|output = '[^']*'|output = '$s.h5'|" -e '/^&hydrodynamics/d' "$root/shapes/$s.nml" > "$out/$s.nml"
-    echo "&hydrodynamics multipole_order = 2, lubrication = .true., lubrication_cutoff = $cutoff /" >> "$out/$s.nml"
+    echo "&hydrodynamics multipole_order = 2, lubrication = .true., lubrication_cutoff = $cutoff${PAPER_HYDRO:+, $PAPER_HYDRO} /" >> "$out/$s.nml"
     start=$(date +%s%N)
     (cd "$out" && mpirun -n 2 "$exe" "$s.nml" ${PAPER_OPTIONS:-} > "$s.log")
     echo "$s $(( ($(date +%s%N) - start) / 1000000 ))" >> "$out/wall_times.txt.new"
@@ -26,5 +29,6 @@ for repeat in $(seq "$repeats"); do
   done
 done
 mv "$out/wall_times.txt.new" "$out/wall_times.txt"
-python3 "$root/bench/paper_table.py" "$out" > "$root/bench/paper_table.md"
-echo "wrote bench/paper_table.md"
+table=${PAPER_TABLE:-$root/bench/paper_table.md}
+python3 "$root/bench/paper_table.py" "$out" > "$table"
+echo "wrote $table"
