@@ -181,9 +181,9 @@ def crescent_readings():
     out = [dict(shape="crescent_moon", tag="built", rule="as built (integer lattice, exact z range)",
                 params={})]
     for tag, pair, rule in (("plus_22_0_11", [(22, 0, 11), (-22, 0, 11)],
-                             "+ nodes (+-22, 0, 11), 0.008 outside the planes"),
+                             "+ nodes (+-22, 0, 11), 0.008 outside the planes: two beads 3 d above the rest (z extent 24 -> 27)"),
                             ("plus_0_5_m11", [(0, 5, -11), (0, -5, -11)],
-                             "+ nodes (0, +-5, -11), 0.014 outside the planes")):
+                             "+ nodes (0, +-5, -11), 0.014 outside the planes (y extent 9 -> 11)")):
         out.append(dict(shape="crescent_moon", tag=tag, rule=rule, params={}, extra=pair))
     return out
 
