@@ -5,7 +5,8 @@ its true error, and whether the extrapolated value is closer to the truth than t
 
     python3 bench/error_estimate.py collect [--bodies a,b] [--settings s,t] [--exe build/beadmob]
     python3 bench/error_estimate.py calibrate      # the factors of src/hydro/error_estimate.f90
-    python3 bench/error_estimate.py report         # bench/error_estimate.md and .csv
+    python3 bench/error_estimate.py report         # bench/error_estimate.md and .csv (calibration
+                                                   # section from bench/error_estimate_tuning.csv)
 
 Bodies: a tuning set (used to choose the estimate's two factors) and a check set that was not
 (the seven paper shapes, a torus, a spheroid, a flat disc and a bent rod). Each body is run at
@@ -133,7 +134,9 @@ def run(exe, name, label, force=False):
 def read(name, label):
     with h5py.File(RUNS / f"{name}_{label}.h5") as f:
         g = f["hydrodynamics"]
+        positions = np.asarray(f["geometry/positions"][()])
         out = dict(mobility=np.asarray(g["body_mobility"][()]), coefficients=np.asarray(g["coefficients"][()]),
+                   positions=positions[np.lexsort(positions.T[::-1])],
                    n=int(f["geometry"].attrs["n_beads"]), length=float(f["shape"].attrs["reference_length"]))
         for key in ("scaled_coefficient_error", "scaled_extrapolated_coefficient_error", "extrapolated_body_mobility",
                     "extrapolated_coefficients", "companion_body_mobility"):
@@ -183,19 +186,6 @@ def factors():
     names = ["entry_factor", "block_factor", "extrapolation_ratio", "extrapolated_entry_factor",
              "extrapolated_block_factor"]
     return {n: float(re.search(rf"{n} = ([0-9.]+)_dp", text).group(1)) for n in names}
-
-
-def estimate(main, low, f):
-    """The estimate of error_estimate.f90 from two body-frame mobilities (for the tuning bodies,
-    whose companion was run separately)."""
-    step = scaled(main - low, main)
-    block = np.zeros_like(step)
-    for i in range(6):
-        for j in range(6):
-            block[i, j] = block_max(step, i, j)
-    return (np.maximum(f["entry_factor"] * step, f["block_factor"] * block),
-            main + f["extrapolation_ratio"] * (main - low),
-            np.maximum(f["extrapolated_entry_factor"] * step, f["extrapolated_block_factor"] * block))
 
 
 def tuning_rows(bodies):
@@ -269,6 +259,8 @@ def report(bodies):
         if BODIES[name][1] != "check" or not (RUNS / f"{name}_{REFERENCE}.h5").exists():
             continue
         run_, ref = read(name, "default"), read(name, REFERENCE)
+        if not np.array_equal(run_["positions"], ref["positions"]):
+            raise SystemExit(f"{name}: the reference run has other beads than the default run (rerun collect --force)")
         if "scaled_coefficient_error" not in run_:
             raise SystemExit(f"{name}: the default run has no error estimate (rerun collect with a current build)")
         m, r = run_["mobility"], ref["mobility"]
@@ -286,11 +278,17 @@ def report(bodies):
                          extrapolated_estimate=run_["estimated_extrapolated_error"]))
         cost.append((name, run_["n"], run_["phases"]))
     write_csv(ROOT / "bench" / "error_estimate.csv", rows)
-    write_report(rows, cost, bodies)
+    write_report(rows, cost)
 
 
-def write_report(rows, cost, bodies):
-    f = factors()
+def read_tuning_rows():
+    """The rows `calibrate` wrote (the tuning runs need not be present for the report)."""
+    with open(ROOT / "bench" / "error_estimate_tuning.csv", newline="") as source:
+        return [{k: (v if k == "body" else float(v)) for k, v in r.items()} for r in csv.DictReader(source)]
+
+
+def write_report(rows, cost):
+    tuning = read_tuning_rows()
     coeff = [r for r in rows if r["coefficient"] in COEFFICIENTS]
     zero = [r for r in coeff if r["true_error"] <= 1e-6]   # exact zeros by symmetry
     judged = [r for r in coeff if r["true_error"] > 1e-6]
@@ -339,11 +337,11 @@ def write_report(rows, cost, bodies):
                    f"{ph.get('companion', 0) / max(ph.get('total', 0) - ph.get('companion', 0), 1e-9):.2f} |")
     out += ["", "## Calibration", "",
             "The factors were chosen on the tuning bodies only (" +
-            ", ".join(n for n in bodies if BODIES[n][1] == "tune") + "): the same reference, the default run, and "
+            ", ".join(dict.fromkeys(r["body"] for r in tuning)) + "): the same reference, the default run, and "
             "a separate L = 1 run with the default's shell model and tolerance standing in for the companion "
             "(bench/error_estimate_tuning.csv). 'truth / step' is the true error of the order-L value over its "
             "difference from order L - 1; the estimate is max(entry_factor step, block_factor block step).", ""]
-    out += calibration_lines(tuning_rows(bodies))
+    out += calibration_lines(tuning)
     (ROOT / "bench" / "error_estimate.md").write_text("\n".join(out) + "\n")
     print("wrote bench/error_estimate.md")
 
