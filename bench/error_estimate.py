@@ -310,7 +310,12 @@ def write_report(rows, cost):
            "## Summary", "",
            f"- Coefficients with a nonzero true error (> 1e-6): {len(judged)}; the estimate bounds the true error in "
            f"**{len(bound)} ({len(bound) / max(len(judged), 1):.0%})**; it overestimates by a median factor "
-           f"{np.median(over):.1f}, at most {over.max():.1f} (95 % of them at most {np.quantile(over, 0.95):.1f}).",
+           f"{np.median(over):.1f}, at most {over.max():.1f} (95 % of them at most {np.quantile(over, 0.95):.1f}; "
+           f"by at most 10x in {np.sum(over <= 10)} of {len(judged)}).",
+           *[f"- Overestimated more than 10x: {r['body']} {r['coefficient']}, true error {r['true_error']:.1e} against "
+             f"a median {np.median([q['true_error'] for q in judged]):.1e} over all: its order-L value lies near the "
+             f"reference by chance, much nearer than its step from order L - 1 suggests; the estimate "
+             f"{r['estimate']:.1e} is of the usual size." for r in judged if r["estimate"] > 10 * r["true_error"]],
            f"- The extrapolated value is closer to the reference than the order-L value in **{len(closer)} of "
            f"{len(judged)}** coefficients; its own error bar bounds its true error in {len(ext_bound)} of {len(judged)}.",
            f"- Coefficients that are zero by symmetry (true error <= 1e-6): {len(zero)}; the estimate is <= 1e-6 "
