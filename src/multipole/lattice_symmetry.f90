@@ -9,6 +9,7 @@ module beadmob_lattice_symmetry
   use beadmob_kinds, only: dp
   use beadmob_multipole_basis, only: multipole_basis_t, evaluate_densities, bead_radius
   use beadmob_quadrature, only: sphere_rule
+  use beadmob_lapack, only: dgemm
   implicit none
   private
   public :: n_symmetries, symmetry_matrix, canonical_displacement, basis_transforms
@@ -65,20 +66,27 @@ contains
   subroutine basis_transforms(basis, transforms)
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(out) :: transforms(:, :, :)
-    real(dp), allocatable :: points(:, :), weights(:), here(:, :), moved(:, :)
+    real(dp), allocatable :: points(:, :), weights(:), here(:, :, :), moved(:, :, :)
     real(dp) :: q(3, 3)
-    integer :: s, p
+    integer :: s, p, rows
     call sphere_rule([0.0_dp, 0.0_dp, 1.0_dp], bead_radius, basis%order + 4, 2 * basis%order + 6, points, weights)
-    allocate (here(3, basis%size), moved(3, basis%size))
+    ! The weighted densities at the nodes do not depend on the symmetry: evaluated once. Each
+    ! transform is then one product over all nodes and components (BLAS), the sum of
+    ! w_p here_p^T moved_p: at L = 16 (800 unknowns) 48 products of 800 x 2300 x 800.
+    allocate (here(3, size(weights), basis%size), moved(3, size(weights), basis%size))
+    rows = 3 * size(weights)
+    do p = 1, size(weights)
+      call evaluate_densities(basis, points(:, p), here(:, p, :))
+      here(:, p, :) = weights(p) * here(:, p, :)
+    end do
     do s = 1, n_symmetries
       q = real(symmetry_matrix(s), dp)
-      transforms(:, :, s) = 0.0_dp
       do p = 1, size(weights)
-        call evaluate_densities(basis, points(:, p), here)
-        call evaluate_densities(basis, matmul(transpose(q), points(:, p)), moved)
-        moved = matmul(q, moved)
-        transforms(:, :, s) = transforms(:, :, s) + weights(p) * matmul(transpose(here), moved)
+        call evaluate_densities(basis, matmul(transpose(q), points(:, p)), moved(:, p, :))
+        moved(:, p, :) = matmul(q, moved(:, p, :))
       end do
+      call dgemm('T', 'N', basis%size, basis%size, rows, 1.0_dp, here, rows, moved, rows, 0.0_dp, &
+                 transforms(:, :, s), basis%size)
     end do
   end subroutine basis_transforms
 end module beadmob_lattice_symmetry
