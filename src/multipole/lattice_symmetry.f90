@@ -68,11 +68,11 @@ contains
     real(dp), intent(out) :: transforms(:, :, :)
     real(dp), allocatable :: points(:, :), weights(:), here(:, :, :), moved(:, :, :)
     real(dp) :: q(3, 3)
-    integer :: s, p, rows
+    integer :: s, p, rows, first, last, block
     call sphere_rule([0.0_dp, 0.0_dp, 1.0_dp], bead_radius, basis%order + 4, 2 * basis%order + 6, points, weights)
     ! The weighted densities at the nodes do not depend on the symmetry: evaluated once. Each
     ! transform is then one product over all nodes and components (BLAS), the sum of
-    ! w_p here_p^T moved_p: at L = 16 (800 unknowns) 48 products of 800 x 2300 x 800.
+    ! w_p here_p^T moved_p.
     allocate (here(3, size(weights), basis%size), moved(3, size(weights), basis%size))
     rows = 3 * size(weights)
     do p = 1, size(weights)
@@ -85,8 +85,22 @@ contains
         call evaluate_densities(basis, matmul(transpose(q), points(:, p)), moved(:, p, :))
         moved(:, p, :) = matmul(q, moved(:, p, :))
       end do
-      call dgemm('T', 'N', basis%size, basis%size, rows, 1.0_dp, here, rows, moved, rows, 0.0_dp, &
-                 transforms(:, :, s), basis%size)
+      ! Q phi(Q^T y) of a degree-n density is again one of degree n (R_{n,k}(Q^T y) is a harmonic of
+      ! degree n; grad, y x and |y| commute with Q up to det Q): only the diagonal blocks of the
+      ! functions of one degree (contiguous in the basis) are nonzero.
+      transforms(:, :, s) = 0.0_dp
+      first = 1
+      do while (first <= basis%size)
+        last = first
+        do while (last < basis%size)
+          if (basis%degree(last + 1) /= basis%degree(first)) exit
+          last = last + 1
+        end do
+        block = last - first + 1
+        call dgemm('T', 'N', block, block, rows, 1.0_dp, here(:, :, first:last), rows, moved(:, :, first:last), &
+                   rows, 0.0_dp, transforms(first:last, first:last, s), block)
+        first = last + 1
+      end do
     end do
   end subroutine basis_transforms
 end module beadmob_lattice_symmetry
