@@ -47,10 +47,8 @@ module beadmob_paper_shapes
   !> Open rings with gaps 1, 2, 3, 4 mm: a, b as listed in the appendix (items a-d).
   real(dp), parameter, public :: paper_ring_semi_major(4) = [30.90_dp, 33.72_dp, 37.08_dp, 39.06_dp]
   real(dp), parameter, public :: paper_ring_semi_minor(4) = [27.90_dp, 27.60_dp, 27.48_dp, 27.36_dp]
-  !> The listed gap half-angles 10 deg 47', 20 deg 32', 28 deg 30', 36 deg 35' (items a-d).
-  real(dp), parameter, public :: paper_ring_listed_gap_half_angle_deg(4) = &
-    [10.0_dp + 47.0_dp / 60.0_dp, 20.0_dp + 32.0_dp / 60.0_dp, 28.0_dp + 30.0_dp / 60.0_dp, &
-     36.0_dp + 35.0_dp / 60.0_dp]
+  !> The appendix lists the gap half-angles 10 deg 47', 20 deg 32', 28 deg 30', 36 deg 35' (items
+  !> a-d); the model uses the angles below instead (bench/shape_readings.md runs both).
   !> Measured openings (section "Rigid particles": 1.02, 2.02, 3.02, 4.02 mm) and the scale
   !> 12 d/mm: the listed arcs of the 3 and 4 mm rings are 36.23 = 12 x 3.02 and 48.24 =
   !> 12 x 4.02 d (and 2R = 7.2 d for the width 0.596 mm is 12.1 d/mm). The gap arc of every

@@ -68,7 +68,7 @@ contains
     real(dp), intent(out) :: transforms(:, :, :)
     real(dp), allocatable :: points(:, :), weights(:), here(:, :, :), moved(:, :, :)
     real(dp) :: q(3, 3)
-    integer :: s, p, rows, first, last, block
+    integer :: s, p, n, rows, first, last, block
     call sphere_rule([0.0_dp, 0.0_dp, 1.0_dp], bead_radius, basis%order + 4, 2 * basis%order + 6, points, weights)
     ! The weighted densities at the nodes do not depend on the symmetry: evaluated once. Each
     ! transform is then one product over all nodes and components (BLAS), the sum of
@@ -89,17 +89,12 @@ contains
       ! degree n; grad, y x and |y| commute with Q up to det Q): only the diagonal blocks of the
       ! functions of one degree (contiguous in the basis) are nonzero.
       transforms(:, :, s) = 0.0_dp
-      first = 1
-      do while (first <= basis%size)
-        last = first
-        do while (last < basis%size)
-          if (basis%degree(last + 1) /= basis%degree(first)) exit
-          last = last + 1
-        end do
+      do n = 1, basis%order
+        first = findloc(basis%degree, n, dim=1)
+        last = findloc(basis%degree, n, dim=1, back=.true.)
         block = last - first + 1
         call dgemm('T', 'N', block, block, rows, 1.0_dp, here(:, :, first:last), rows, moved(:, :, first:last), &
                    rows, 0.0_dp, transforms(first:last, first:last, s), block)
-        first = last + 1
       end do
     end do
   end subroutine basis_transforms
