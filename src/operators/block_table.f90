@@ -17,6 +17,7 @@ module beadmob_block_table
   use beadmob_parallel, only: even_shares
   use beadmob_multipole_basis, only: multipole_basis_t, bead_radius
   use beadmob_pair_blocks, only: pair_block
+  use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
   use beadmob_table_cache, only: cache_key_t, read_cached_blocks, write_cached_blocks, warn_cache
   implicit none
@@ -410,6 +411,7 @@ contains
     type(error_t), intent(inout) :: err
     integer :: nb, n, i, j
     real(dp) :: bytes
+    type(axial_table_t) :: axial
     nb = basis%size
     n = size(centres, 2)
     bytes = real(n, dp) * n_local * nb * nb * 8
@@ -420,15 +422,17 @@ contains
       return
     end if
     allocate (table%blocks(nb, nb, n * n_local))
+    ! Every block from the axial table turned to the pair (theory.md T15), not a quadrature each.
+    call make_axial_table(basis, axial)
     do i = 1, int(n_local)
       do j = 1, n
         if (j == first + i - 1) then
           table%blocks(:, :, (i - 1) * n + j) = 0.0_dp
         else
-          call pair_block(basis, centres(:, first + i - 1) - centres(:, j), table%blocks(:, :, (i - 1) * n + j))
+          call rotated_block(axial, centres(:, first + i - 1) - centres(:, j), table%blocks(:, :, (i - 1) * n + j))
         end if
       end do
     end do
-    table%computed_blocks = n * n_local
+    table%computed_blocks = size(axial%nodes)
   end subroutine fill_pair_store
 end module beadmob_block_table

@@ -14,6 +14,7 @@ module beadmob_friction_job
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, &
                                   create_fft_companion
+  use beadmob_pfft_operator, only: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
@@ -40,8 +41,12 @@ module beadmob_friction_job
     integer :: potential_order = 0     ! L2
     logical :: lubrication = .true.
     real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
-    !> 'direct', 'fft', or 'auto' (the faster one for the job, see choose_operator)
+    !> 'direct', 'fft', 'pfft' or 'auto' (the faster one for the job, see choose_operator)
     character(len=16) :: operator_name = 'auto'
+    !> The precorrected-FFT operator of off-lattice beads (pfft_operator.F90): interpolation points
+    !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost)
+    integer :: pfft_stencil = 4
+    real(dp) :: pfft_near_radius = 4.0_dp
     !> FFTW planner of the FFT operator: 'measure' (faster products) or 'estimate' (bitwise
     !> reproducible from run to run)
     character(len=16) :: fft_planner = 'measure'
@@ -173,6 +178,7 @@ contains
     type(multipole_basis_t) :: basis
     type(bead_operator_t), target :: direct_op
     type(fft_operator_t), target :: fft_op
+    type(pfft_operator_t), target :: pfft_op
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
     type(motion_symmetry_t), allocatable :: symmetry
     Vec :: layout
@@ -236,6 +242,20 @@ contains
       result%computed_blocks = fft_op%table%computed_blocks
       result%cached_blocks = fft_op%table%cached_blocks
       self = fft_op%self_block
+    else if (result%operator_name == 'pfft') then
+      pfft_op%stencil = settings%pfft_stencil
+      pfft_op%near_radius = settings%pfft_near_radius
+      pfft_op%grid%measure_plans = settings%fft_planner == 'measure'
+      call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report, &
+                                keep_lattice=with_companion)
+      call agree_on_error(ctx, err)
+      if (err%failed) then
+        call destroy_pfft_operator(pfft_op, matrix)
+        PetscCallA(PetscLogStagePop(ierr))
+        return
+      end if
+      result%computed_blocks = pfft_op%grid%table%computed_blocks
+      self = pfft_op%self_block
     else
       direct_op%table%cache_file = trim(settings%cache_file)
       call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
@@ -347,6 +367,7 @@ contains
       type(error_t), intent(inout) :: err
       type(bead_operator_t), target :: direct_low
       type(fft_operator_t), target :: fft_low
+      type(pfft_operator_t), target :: pfft_low
       type(bead_block_preconditioner_t), target :: low_blocks
       type(motion_symmetry_t), allocatable :: low_symmetry
       type(solve_control_t) :: low_control
@@ -360,6 +381,13 @@ contains
         call agree_on_error(ctx, err)
         if (err%failed) then
           call destroy_fft_operator(fft_low, low_matrix)
+          return
+        end if
+      else if (result%operator_name == 'pfft') then
+        call create_pfft_companion(ctx%comm, pfft_op, unknowns, pfft_low, low_matrix, err)
+        call agree_on_error(ctx, err)
+        if (err%failed) then
+          call destroy_pfft_operator(pfft_low, low_matrix)
           return
         end if
       else
@@ -383,7 +411,7 @@ contains
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
-      call destroy_operator(fft_low, direct_low, low_matrix)
+      call destroy_operator(fft_low, direct_low, pfft_low, low_matrix)
     end subroutine companion_friction
 
     !> friction += the lubrication correction of order (order, potential_order): every rank gets
@@ -409,16 +437,19 @@ contains
       if (.not. allocated(bead_blocks)) then
         PetscCallA(MatDestroy(near_field, ierr))
       end if
-      call destroy_operator(fft_op, direct_op, matrix)
+      call destroy_operator(fft_op, direct_op, pfft_op, matrix)
     end subroutine release_operator
 
     !> The operator of the kind this job uses (the order-L one or its companion) and its matrix.
-    subroutine destroy_operator(fft, direct, shell)
+    subroutine destroy_operator(fft, direct, pfft, shell)
       type(fft_operator_t), intent(inout) :: fft
       type(bead_operator_t), intent(inout) :: direct
+      type(pfft_operator_t), intent(inout) :: pfft
       Mat, intent(inout) :: shell
       if (result%operator_name == 'fft') then
         call destroy_fft_operator(fft, shell)
+      else if (result%operator_name == 'pfft') then
+        call destroy_pfft_operator(pfft, shell)
       else
         call destroy_bead_operator(direct, shell)
       end if
@@ -514,6 +545,10 @@ contains
     if (found) settings%operator_name = value
     PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_radius', radius, found, ierr))
     if (found) settings%near_field_radius = radius
+    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-pfft_near_radius', radius, found, ierr))
+    if (found) settings%pfft_near_radius = radius
+    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-pfft_stencil', edge, found, ierr))
+    if (found) settings%pfft_stencil = int(edge)
     PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_cluster', edge, found, ierr))
     if (found) settings%near_field_cluster = int(edge)
     PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-fft_planner', value, found, ierr))
@@ -548,7 +583,7 @@ contains
     real(dp) :: direct_work, fft_work, sites
     integer :: axis
     select case (trim(requested))
-    case ('direct', 'fft')
+    case ('direct', 'fft', 'pfft')
       chosen = requested
     case ('auto')
       chosen = 'direct'
@@ -563,7 +598,7 @@ contains
       end if
     case default
       chosen = ''
-      call raise(err, "-operator must be 'direct', 'fft' or 'auto', got '" // trim(requested) // "'")
+      call raise(err, "-operator must be 'direct', 'fft', 'pfft' or 'auto', got '" // trim(requested) // "'")
     end select
   end subroutine choose_operator
 end module beadmob_friction_job

@@ -1,0 +1,431 @@
+!> The multipole operator of an off-lattice bead model with a precorrected-FFT far field
+!> (Phillips & White, IEEE TCAD 16, 1059 (1997); theory.md T16), a PETSc MATSHELL:
+!>   y = I G I^T x + C x.
+!> G is the lattice FFT operator (fft_operator.F90) on the nodes of the unit grid that carry
+!> beads' stencils: the exact product of the blocks A(g - g') of grid displacements (and S at
+!> g = g'). I interpolates: A(t - s), analytic in s and t for |t - s| > 1 d, is approximated by
+!> tensor Lagrange interpolation of degree p in each coordinate over the p + 1 nearest grid
+!> points of each bead (weights l_g(R), the same for every unknown):
+!>   A(R_i - R_j) ~ sum_{g, g'} l_g(R_i) l_g'(R_j) A(g - g').
+!> C (a sparse PETSc matrix, this rank's rows) makes the near pairs (|R_i - R_j| < near_radius,
+!> and i = j) exact: C_ij = A(R_i - R_j) - (the grid's approximation of it), the exact block
+!> from the axial table (axial_table.f90). Far pairs carry the interpolation error, controlled by
+!> p and near_radius (measured: bench/offlattice.md). Beads on the lattice get l = delta, C = 0 to
+!> rounding and the lattice operator itself. Memory per rank: the FFT slab, I (nb (p+1)^3 entries
+!> per bead row) and C (nb^2 per near pair): O(N/P) for a fixed near radius.
+module beadmob_pfft_operator
+#include "petsc/finclude/petscmat.h"
+  use petscmat
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_progress, only: progress_line, progress_seconds
+  use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_pair_blocks, only: self_block
+  use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
+  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion
+  implicit none
+  private
+  public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
+
+  type :: pfft_operator_t
+    integer :: block_size = 0
+    integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
+    !> Interpolation points per axis (degree + 1) and the near radius (d): set before create.
+    integer :: stencil = 4
+    real(dp) :: near_radius = 4.0_dp
+    real(dp), allocatable :: self_block(:, :)
+    type(fft_operator_t) :: grid
+    integer(i8) :: n_grid = 0          ! grid nodes carrying a stencil
+    integer(i8) :: near_pairs = 0      ! near pairs of this rank's rows (i = j included)
+    Mat :: grid_matrix, interpolation, correction
+    Vec :: grid_x, grid_y
+    logical :: created = .false.
+  end type pfft_operator_t
+
+  interface
+    subroutine MatCreateShell(comm, m_local, n_local, m, n, context, matrix, ierr)
+      use petscmat
+      import :: pfft_operator_t
+      MPI_Comm :: comm
+      PetscInt :: m_local, n_local, m, n
+      type(pfft_operator_t) :: context
+      Mat :: matrix
+      PetscErrorCode :: ierr
+    end subroutine MatCreateShell
+    subroutine MatShellGetContext(matrix, context, ierr)
+      use petscmat
+      import :: pfft_operator_t
+      Mat :: matrix
+      type(pfft_operator_t), pointer :: context
+      PetscErrorCode :: ierr
+    end subroutine MatShellGetContext
+  end interface
+
+contains
+
+  !> The grid of `centres` for a stencil of `stencil` points per axis: first(:, j), the lowest
+  !> stencil node of bead j (grid coordinates from the lowest corner), and the 1-D Lagrange
+  !> weights(m, axis, j) of its nodes first + m - 1. node_id(grid point) numbers the nodes that
+  !> carry a stencil (x fastest), 0 elsewhere; nodes(:, k) their coordinates.
+  subroutine pfft_grid_nodes(centres, stencil, first, weights, node_id, nodes)
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: stencil
+    integer, allocatable, intent(out) :: first(:, :), node_id(:, :, :)
+    real(dp), allocatable, intent(out) :: weights(:, :, :)
+    real(dp), allocatable, intent(out) :: nodes(:, :)
+    real(dp) :: corner(3), t
+    integer :: j, axis, m, q, extent(3), a, b, c, count
+    corner = minval(centres, dim=2)
+    allocate (first(3, size(centres, 2)), weights(stencil, 3, size(centres, 2)))
+    do j = 1, size(centres, 2)
+      do axis = 1, 3
+        ! Offsets in [s/2 - 1, s/2) from the first node: the bead sits in the stencil's middle cell.
+        first(axis, j) = floor(centres(axis, j) - corner(axis) + 1.0e-12_dp) - (stencil / 2 - 1)
+        t = centres(axis, j) - corner(axis) - first(axis, j)
+        do m = 0, stencil - 1
+          weights(m + 1, axis, j) = 1.0_dp
+          do q = 0, stencil - 1
+            if (q /= m) weights(m + 1, axis, j) = weights(m + 1, axis, j) * (t - q) / real(m - q, dp)
+          end do
+        end do
+      end do
+    end do
+    first = first - spread(minval(first, dim=2), 2, size(centres, 2))
+    extent = maxval(first, dim=2) + stencil
+    allocate (node_id(0:extent(1) - 1, 0:extent(2) - 1, 0:extent(3) - 1))
+    node_id = 0
+    do j = 1, size(centres, 2)
+      node_id(first(1, j):first(1, j) + stencil - 1, first(2, j):first(2, j) + stencil - 1, &
+              first(3, j):first(3, j) + stencil - 1) = 1
+    end do
+    count = 0
+    do c = 0, extent(3) - 1
+      do b = 0, extent(2) - 1
+        do a = 0, extent(1) - 1
+          if (node_id(a, b, c) == 0) cycle
+          count = count + 1
+          node_id(a, b, c) = count
+        end do
+      end do
+    end do
+    allocate (nodes(3, count))
+    do c = 0, extent(3) - 1
+      do b = 0, extent(2) - 1
+        do a = 0, extent(1) - 1
+          if (node_id(a, b, c) > 0) nodes(:, node_id(a, b, c)) = [a, b, c]
+        end do
+      end do
+    end do
+  end subroutine pfft_grid_nodes
+
+  !> Collective. op%stencil and op%near_radius as wanted before the call. `op` must stay in place
+  !> while `matrix` lives. keep_lattice: for a companion (create_pfft_companion).
+  subroutine create_pfft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report, keep_lattice)
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :)
+    integer(i8), intent(in) :: first_bead, n_local
+    type(pfft_operator_t), target, intent(inout) :: op
+    Mat, intent(out) :: matrix
+    type(error_t), intent(inout) :: err
+    logical, intent(in) :: report
+    logical, intent(in), optional :: keep_lattice
+    integer, allocatable :: first(:, :), node_id(:, :, :)
+    real(dp), allocatable :: weights(:, :, :), nodes(:, :)
+    integer(i8) :: grid_first, grid_count
+    integer :: rank, n_ranks
+    PetscErrorCode :: ierr
+    real(dp) :: start
+
+    start = MPI_Wtime()
+    if (op%stencil < 2 .or. mod(op%stencil, 2) /= 0) then
+      call raise(err, 'the pfft stencil must be an even number of points >= 2, got ' // str(op%stencil))
+      return
+    end if
+    op%block_size = basis%size
+    op%n_beads = size(centres, 2, kind=i8)
+    op%first_bead = first_bead
+    op%n_local = n_local
+    allocate (op%self_block(basis%size, basis%size))
+    call self_block(basis, op%self_block)
+    call pfft_grid_nodes(centres, op%stencil, first, weights, node_id, nodes)
+    op%n_grid = size(nodes, 2, kind=i8)
+    call MPI_Comm_rank(comm, rank, ierr)
+    call MPI_Comm_size(comm, n_ranks, ierr)
+    grid_count = op%n_grid / n_ranks
+    grid_first = 1 + rank * grid_count + min(int(rank, i8), mod(op%n_grid, int(n_ranks, i8)))
+    if (rank < mod(op%n_grid, int(n_ranks, i8))) grid_count = grid_count + 1
+    call progress_line(report, 'pfft grid: ' // str(op%n_grid) // ' nodes carry the stencils of ' // &
+                       str(op%stencil) // '^3 points; near radius ' // str(op%near_radius) // ' d')
+    call create_fft_operator(comm, basis, nodes, grid_first, grid_count, op%grid, op%grid_matrix, err, report, keep_lattice)
+    if (err%failed) return
+    call assemble_interpolation(comm, op, first, weights, node_id)
+    call assemble_correction(comm, basis, op, centres, first, weights)
+    PetscCallA(MatCreateVecs(op%grid_matrix, op%grid_x, op%grid_y, ierr))
+    call make_shell(comm, op, matrix)
+    call progress_line(report, 'pfft operator: ' // str(op%near_pairs) // ' near pairs on rank 0 (' // &
+                       progress_seconds(MPI_Wtime() - start) // ' s)')
+  end subroutine create_pfft_operator
+
+  !> I (bead unknowns x grid unknowns, this rank's bead rows): entry l_g(R_j) between unknown a
+  !> of bead j and unknown a of node g.
+  subroutine assemble_interpolation(comm, op, first, weights, node_id)
+    MPI_Comm, intent(in) :: comm
+    type(pfft_operator_t), intent(inout) :: op
+    integer, intent(in) :: first(:, :), node_id(0:, 0:, 0:)
+    real(dp), intent(in) :: weights(:, :, :)
+    PetscInt :: local_rows, local_columns, global_rows, global_columns, column_start, column_end, row(1)
+    PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
+    PetscScalar, allocatable :: values(:)
+    PetscErrorCode :: ierr
+    integer :: s, nb, a, m1, m2, m3, k
+    integer(i8) :: i, bead
+    Vec :: template
+    s = op%stencil
+    nb = op%block_size
+    PetscCallA(MatCreateVecs(op%grid_matrix, template, PETSC_NULL_VEC, ierr))
+    PetscCallA(VecGetOwnershipRange(template, column_start, column_end, ierr))
+    PetscCallA(VecDestroy(template, ierr))
+    local_rows = int(op%n_local * nb)
+    global_rows = int(op%n_beads * nb)
+    local_columns = column_end - column_start
+    global_columns = int(op%n_grid * nb)
+    allocate (diagonal(local_rows), off_diagonal(local_rows), columns(s**3), values(s**3))
+    do i = 1, op%n_local
+      bead = op%first_bead + i - 1
+      call stencil_columns(bead, 1)
+      k = count(columns >= column_start .and. columns < column_end)
+      diagonal((i - 1) * nb + 1:i * nb) = k
+      off_diagonal((i - 1) * nb + 1:i * nb) = s**3 - k
+    end do
+    PetscCallA(MatCreateAIJ(comm, local_rows, local_columns, global_rows, global_columns, 0, diagonal, 0, off_diagonal, op%interpolation, ierr))
+    do i = 1, op%n_local
+      bead = op%first_bead + i - 1
+      do a = 1, nb
+        call stencil_columns(bead, a)
+        row(1) = int((bead - 1) * nb + a - 1)
+        PetscCallA(MatSetValues(op%interpolation, 1, row, s**3, columns, values, INSERT_VALUES, ierr))
+      end do
+    end do
+    PetscCallA(MatAssemblyBegin(op%interpolation, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCallA(MatAssemblyEnd(op%interpolation, MAT_FINAL_ASSEMBLY, ierr))
+
+  contains
+
+    !> columns/values of unknown a of bead j: its stencil's nodes.
+    subroutine stencil_columns(j, a)
+      integer(i8), intent(in) :: j
+      integer, intent(in) :: a
+      integer :: n
+      n = 0
+      do m3 = 1, s
+        do m2 = 1, s
+          do m1 = 1, s
+            n = n + 1
+            columns(n) = (node_id(first(1, j) + m1 - 1, first(2, j) + m2 - 1, first(3, j) + m3 - 1) - 1) * nb + a - 1
+            values(n) = weights(m1, 1, j) * weights(m2, 2, j) * weights(m3, 3, j)
+          end do
+        end do
+      end do
+    end subroutine stencil_columns
+  end subroutine assemble_interpolation
+
+  !> C: for every near pair (i in this rank's rows), the exact block minus the grid's
+  !> approximation sum_delta w_x(delta_x) w_y(delta_y) w_z(delta_z) K(g_i - g_j + delta), with w the
+  !> 1-D correlations of the two beads' Lagrange weights and K(0) = S, K(d) = A(d).
+  subroutine assemble_correction(comm, basis, op, centres, first, weights)
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    type(pfft_operator_t), intent(inout) :: op
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: first(:, :)
+    real(dp), intent(in) :: weights(:, :, :)
+    type(axial_table_t) :: axial
+    real(dp), allocatable :: kernel(:, :, :, :, :), exact(:, :), approximate(:, :)
+    real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3), w
+    integer, allocatable :: near(:)
+    PetscInt, allocatable :: diagonal(:), off_diagonal(:), rows(:), columns(:)
+    PetscInt :: local_rows, global_rows
+    PetscErrorCode :: ierr
+    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), a
+    integer(i8) :: i, j, bead, last_bead
+    nb = op%block_size
+    s = op%stencil
+    call make_axial_table(basis, axial)
+    ! K(d) for every displacement a near pair's stencils can meet
+    reach = ceiling(op%near_radius) + s
+    allocate (kernel(nb, nb, -reach:reach, -reach:reach, -reach:reach))
+    do dz = -reach, reach
+      do dy = -reach, reach
+        do dx = -reach, reach
+          if (dx == 0 .and. dy == 0 .and. dz == 0) then
+            kernel(:, :, 0, 0, 0) = op%self_block
+          else
+            call rotated_block(axial, real([dx, dy, dz], dp), kernel(:, :, dx, dy, dz))
+          end if
+        end do
+      end do
+    end do
+    local_rows = int(op%n_local * nb)
+    global_rows = int(op%n_beads * nb)
+    last_bead = op%first_bead + op%n_local - 1
+    allocate (diagonal(local_rows), off_diagonal(local_rows), near(op%n_beads))
+    op%near_pairs = 0
+    do i = 1, op%n_local
+      call near_beads(op%first_bead + i - 1)
+      k = count(near(1:n_near) >= op%first_bead .and. near(1:n_near) <= last_bead)
+      diagonal((i - 1) * nb + 1:i * nb) = k * nb
+      off_diagonal((i - 1) * nb + 1:i * nb) = (n_near - k) * nb
+      op%near_pairs = op%near_pairs + n_near
+    end do
+    PetscCallA(MatCreateAIJ(comm, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+    allocate (exact(nb, nb), approximate(nb, nb), rows(nb), columns(nb))
+    do i = 1, op%n_local
+      bead = op%first_bead + i - 1
+      call near_beads(bead)
+      rows = int((bead - 1) * nb) + [(a - 1, a = 1, nb)]
+      do k = 1, n_near
+        j = near(k)
+        if (j == bead) then
+          exact = op%self_block
+        else
+          call rotated_block(axial, centres(:, bead) - centres(:, j), exact)
+        end if
+        do axis = 1, 3
+          correlation(:, axis) = 0.0_dp
+          do m = 1, s
+            correlation(m - s:m - 1, axis) = correlation(m - s:m - 1, axis) + weights(m, axis, bead) * weights(s:1:-1, axis, j)
+          end do
+        end do
+        approximate = 0.0_dp
+        do dz = 1 - s, s - 1
+          do dy = 1 - s, s - 1
+            do dx = 1 - s, s - 1
+              w = correlation(dx, 1) * correlation(dy, 2) * correlation(dz, 3)
+              d = first(:, bead) - first(:, j) + [dx, dy, dz]
+              approximate = approximate + w * kernel(:, :, d(1), d(2), d(3))
+            end do
+          end do
+        end do
+        exact = exact - approximate
+        columns = int((j - 1) * nb) + [(a - 1, a = 1, nb)]
+        PetscCallA(MatSetValues(op%correction, nb, rows, nb, columns, transpose(exact), INSERT_VALUES, ierr))
+      end do
+    end do
+    PetscCallA(MatAssemblyBegin(op%correction, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCallA(MatAssemblyEnd(op%correction, MAT_FINAL_ASSEMBLY, ierr))
+
+  contains
+
+    !> near(1:n_near): the beads closer than the near radius to bead b (b itself included).
+    subroutine near_beads(b)
+      integer(i8), intent(in) :: b
+      integer(i8) :: other
+      n_near = 0
+      do other = 1, op%n_beads
+        if (sum((centres(:, other) - centres(:, b))**2) < op%near_radius**2) then
+          n_near = n_near + 1
+          near(n_near) = int(other)
+        end if
+      end do
+    end subroutine near_beads
+  end subroutine assemble_correction
+
+  subroutine make_shell(comm, op, matrix)
+    MPI_Comm, intent(in) :: comm
+    type(pfft_operator_t), target, intent(inout) :: op
+    Mat, intent(out) :: matrix
+    PetscErrorCode :: ierr
+    PetscInt :: local_size, global_size
+    local_size = int(op%n_local * op%block_size)
+    global_size = int(op%n_beads * op%block_size)
+    PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, matrix, ierr))
+    PetscCallA(MatShellSetOperation(matrix, MATOP_MULT, apply_pfft_operator, ierr))
+    PetscCallA(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE, ierr))
+    op%created = .true.
+  end subroutine make_shell
+
+  !> Collective. The operator of the sub-basis `unknowns` (theory.md T14): the grid's companion
+  !> and the sub-matrices of I and C (a block entry depends on its two functions only). The
+  !> parent must have been created with keep_lattice and outlive the companion.
+  subroutine create_pfft_companion(comm, parent, unknowns, companion, matrix, err)
+    MPI_Comm, intent(in) :: comm
+    type(pfft_operator_t), target, intent(inout) :: parent
+    integer, intent(in) :: unknowns(:)
+    type(pfft_operator_t), target, intent(inout) :: companion
+    Mat, intent(out) :: matrix
+    type(error_t), intent(inout) :: err
+    IS :: bead_rows, grid_rows
+    PetscErrorCode :: ierr
+    companion%block_size = size(unknowns)
+    companion%n_beads = parent%n_beads
+    companion%first_bead = parent%first_bead
+    companion%n_local = parent%n_local
+    companion%stencil = parent%stencil
+    companion%near_radius = parent%near_radius
+    companion%self_block = parent%self_block(unknowns, unknowns)
+    companion%n_grid = parent%n_grid
+    companion%near_pairs = parent%near_pairs
+    call create_fft_companion(comm, parent%grid, unknowns, companion%grid, companion%grid_matrix, err)
+    if (err%failed) return
+    call sub_unknowns(parent%first_bead, parent%n_local, bead_rows)
+    call sub_unknowns(parent%grid%first_bead, parent%grid%n_local, grid_rows)
+    PetscCallA(MatCreateSubMatrix(parent%interpolation, bead_rows, grid_rows, MAT_INITIAL_MATRIX, companion%interpolation, ierr))
+    PetscCallA(MatCreateSubMatrix(parent%correction, bead_rows, bead_rows, MAT_INITIAL_MATRIX, companion%correction, ierr))
+    PetscCallA(ISDestroy(bead_rows, ierr))
+    PetscCallA(ISDestroy(grid_rows, ierr))
+    PetscCallA(MatCreateVecs(companion%grid_matrix, companion%grid_x, companion%grid_y, ierr))
+    call make_shell(comm, companion, matrix)
+
+  contains
+
+    !> The parent's unknowns `unknowns` of this rank's items first..first+n-1 (global, 0-based).
+    subroutine sub_unknowns(first, n, set)
+      integer(i8), intent(in) :: first, n
+      IS, intent(out) :: set
+      PetscInt, allocatable :: indices(:)
+      integer(i8) :: item
+      integer :: a, nb
+      nb = parent%block_size
+      allocate (indices(n * size(unknowns)))
+      do item = 1, n
+        do a = 1, size(unknowns)
+          indices((item - 1) * size(unknowns) + a) = int((first + item - 2) * nb + unknowns(a) - 1)
+        end do
+      end do
+      PetscCallA(ISCreateGeneral(comm, int(size(indices)), indices, PETSC_COPY_VALUES, set, ierr))
+    end subroutine sub_unknowns
+  end subroutine create_pfft_companion
+
+  subroutine destroy_pfft_operator(op, matrix)
+    type(pfft_operator_t), intent(inout) :: op
+    Mat, intent(inout) :: matrix
+    PetscErrorCode :: ierr
+    if (.not. op%created) then
+      call destroy_fft_operator(op%grid, op%grid_matrix)
+      return
+    end if
+    PetscCallA(MatDestroy(op%interpolation, ierr))
+    PetscCallA(MatDestroy(op%correction, ierr))
+    PetscCallA(VecDestroy(op%grid_x, ierr))
+    PetscCallA(VecDestroy(op%grid_y, ierr))
+    call destroy_fft_operator(op%grid, op%grid_matrix)
+    PetscCallA(MatDestroy(matrix, ierr))
+    op%created = .false.
+  end subroutine destroy_pfft_operator
+
+  !> MATOP_MULT: y = I G I^T x + C x.
+  subroutine apply_pfft_operator(matrix, x, y, ierr)
+    Mat :: matrix
+    Vec :: x, y
+    PetscErrorCode :: ierr
+    type(pfft_operator_t), pointer :: op
+    PetscCall(MatShellGetContext(matrix, op, ierr))
+    PetscCall(MatMultTranspose(op%interpolation, x, op%grid_x, ierr))
+    PetscCall(MatMult(op%grid_matrix, op%grid_x, op%grid_y, ierr))
+    PetscCall(MatMult(op%interpolation, op%grid_y, y, ierr))
+    PetscCall(MatMultAdd(op%correction, x, y, y, ierr))
+    ierr = 0
+  end subroutine apply_pfft_operator
+end module beadmob_pfft_operator
