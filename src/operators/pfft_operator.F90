@@ -22,6 +22,7 @@ module beadmob_pfft_operator
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
+  use beadmob_lapack, only: dgemm
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion
   implicit none
@@ -232,8 +233,11 @@ contains
   end subroutine assemble_interpolation
 
   !> C: for every near pair (i in this rank's rows), the exact block minus the grid's
-  !> approximation sum_delta w_x(delta_x) w_y(delta_y) w_z(delta_z) K(g_i - g_j + delta), with w the
-  !> 1-D correlations of the two beads' Lagrange weights and K(0) = S, K(d) = A(d).
+  !> approximation sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D
+  !> correlations of the two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
+  !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
+  !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once
+  !> per offset instead of once per pair).
   subroutine assemble_correction(comm, basis, op, centres, first, weights)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
@@ -242,14 +246,16 @@ contains
     integer, intent(in) :: first(:, :)
     real(dp), intent(in) :: weights(:, :, :)
     type(axial_table_t) :: axial
-    real(dp), allocatable :: kernel(:, :, :, :, :), exact(:, :), approximate(:, :)
-    real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3), w
-    integer, allocatable :: near(:)
+    real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
+                             exact_batch(:, :, :), row_values(:, :)
+    real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
+    integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
     PetscInt, allocatable :: diagonal(:), off_diagonal(:), rows(:), columns(:)
     PetscInt :: local_rows, global_rows
     PetscErrorCode :: ierr
-    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), a
-    integer(i8) :: i, j, bead, last_bead
+    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), a, offsets, width, n_pairs, p, q, e, stride, chunk, &
+               first_pair, last_pair
+    integer(i8) :: i, bead, last_bead
     nb = op%block_size
     s = op%stencil
     call make_axial_table(basis, axial)
@@ -267,51 +273,137 @@ contains
         end do
       end do
     end do
+
+    ! The near pairs of this rank's rows, and the preallocation of C.
     local_rows = int(op%n_local * nb)
     global_rows = int(op%n_beads * nb)
     last_bead = op%first_bead + op%n_local - 1
     allocate (diagonal(local_rows), off_diagonal(local_rows), near(op%n_beads))
-    op%near_pairs = 0
+    n_pairs = 0
     do i = 1, op%n_local
       call near_beads(op%first_bead + i - 1)
       k = count(near(1:n_near) >= op%first_bead .and. near(1:n_near) <= last_bead)
       diagonal((i - 1) * nb + 1:i * nb) = k * nb
       off_diagonal((i - 1) * nb + 1:i * nb) = (n_near - k) * nb
-      op%near_pairs = op%near_pairs + n_near
+      n_pairs = n_pairs + n_near
     end do
-    PetscCallA(MatCreateAIJ(comm, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
-    allocate (exact(nb, nb), approximate(nb, nb), rows(nb), columns(nb))
+    allocate (pair_row(n_pairs), pair_column(n_pairs))
+    n_pairs = 0
     do i = 1, op%n_local
-      bead = op%first_bead + i - 1
-      call near_beads(bead)
-      rows = int((bead - 1) * nb) + [(a - 1, a = 1, nb)]
-      do k = 1, n_near
-        j = near(k)
-        if (j == bead) then
-          exact = op%self_block
-        else
-          call rotated_block(axial, centres(:, bead) - centres(:, j), exact)
-        end if
-        do axis = 1, 3
-          correlation(:, axis) = 0.0_dp
-          do m = 1, s
-            correlation(m - s:m - 1, axis) = correlation(m - s:m - 1, axis) + weights(m, axis, bead) * weights(s:1:-1, axis, j)
-          end do
+      call near_beads(op%first_bead + i - 1)
+      pair_row(n_pairs + 1:n_pairs + n_near) = int(op%first_bead + i - 1)
+      pair_column(n_pairs + 1:n_pairs + n_near) = near(1:n_near)
+      n_pairs = n_pairs + n_near
+    end do
+    op%near_pairs = n_pairs
+    PetscCallA(MatCreateAIJ(comm, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+
+    ! Rows in chunks of at most ~64 MB of blocks: in a chunk, the pairs sorted by stencil offset
+    ! (counting sort) share the gathered kernel blocks; then each row is inserted at once with its
+    ! columns in increasing order (PETSc's AIJ then appends instead of shifting entries).
+    width = 2 * (reach - s) + 1
+    offsets = width**3
+    stride = (2 * s - 1)**3
+    chunk = max(1, int(64.0e6_dp / (8.0_dp * nb * nb)))
+    allocate (pair_offset(n_pairs), order(n_pairs), offset_start(offsets + 1), next(offsets))
+    do p = 1, n_pairs
+      d = first(:, pair_row(p)) - first(:, pair_column(p)) + (reach - s)
+      pair_offset(p) = 1 + d(1) + width * (d(2) + width * d(3))
+    end do
+    allocate (gathered(nb * nb, stride), pair_weights(stride, min(chunk, max(n_pairs, 1))), &
+              approximate(nb, nb, min(chunk, max(n_pairs, 1))), exact_batch(nb, nb, min(chunk, max(n_pairs, 1))), &
+              exact(nb, nb), rows(nb))
+    first_pair = 1
+    do while (first_pair <= n_pairs)
+      ! whole rows only: the chunk ends where a row ends
+      last_pair = min(n_pairs, first_pair + chunk - 1)
+      do while (last_pair < n_pairs .and. last_pair > first_pair)
+        if (pair_row(last_pair + 1) /= pair_row(last_pair)) exit
+        last_pair = last_pair - 1
+      end do
+      if (last_pair == first_pair .and. first_pair < n_pairs) then   ! a row longer than a chunk: take it whole
+        do while (last_pair < n_pairs)
+          if (pair_row(last_pair + 1) /= pair_row(first_pair)) exit
+          last_pair = last_pair + 1
         end do
-        approximate = 0.0_dp
+      end if
+      if (last_pair - first_pair + 1 > size(approximate, 3)) then
+        deallocate (approximate, pair_weights, exact_batch)
+        allocate (approximate(nb, nb, last_pair - first_pair + 1), pair_weights(stride, last_pair - first_pair + 1), &
+                  exact_batch(nb, nb, last_pair - first_pair + 1))
+      end if
+      offset_start = 0
+      do p = first_pair, last_pair
+        offset_start(pair_offset(p) + 1) = offset_start(pair_offset(p) + 1) + 1
+      end do
+      offset_start(1) = 1
+      do e = 2, offsets + 1
+        offset_start(e) = offset_start(e) + offset_start(e - 1)
+      end do
+      next = offset_start(1:offsets)
+      do p = first_pair, last_pair
+        order(next(pair_offset(p))) = p
+        next(pair_offset(p)) = next(pair_offset(p)) + 1
+      end do
+      do e = 1, offsets
+        q = offset_start(e)
+        n_near = offset_start(e + 1) - q
+        if (n_near == 0) cycle
+        ! the offset's kernel blocks, in the order of the weights (x fastest)
+        d = first(:, pair_row(order(q))) - first(:, pair_column(order(q)))
+        k = 0
         do dz = 1 - s, s - 1
           do dy = 1 - s, s - 1
             do dx = 1 - s, s - 1
-              w = correlation(dx, 1) * correlation(dy, 2) * correlation(dz, 3)
-              d = first(:, bead) - first(:, j) + [dx, dy, dz]
-              approximate = approximate + w * kernel(:, :, d(1), d(2), d(3))
+              k = k + 1
+              gathered(:, k) = reshape(kernel(:, :, d(1) + dx, d(2) + dy, d(3) + dz), [nb * nb])
             end do
           end do
         end do
-        exact = exact - approximate
-        columns = int((j - 1) * nb) + [(a - 1, a = 1, nb)]
-        PetscCallA(MatSetValues(op%correction, nb, rows, nb, columns, transpose(exact), INSERT_VALUES, ierr))
+        do k = 1, n_near
+          p = order(q + k - 1)
+          do axis = 1, 3
+            correlation(:, axis) = 0.0_dp
+            do m = 1, s
+              correlation(m - s:m - 1, axis) = correlation(m - s:m - 1, axis) + &
+                                               weights(m, axis, pair_row(p)) * weights(s:1:-1, axis, pair_column(p))
+            end do
+          end do
+          pair_weights(:, k) = reshape(spread(spread(correlation(:, 1), 2, 2 * s - 1), 3, 2 * s - 1) * &
+                                       spread(spread(correlation(:, 2), 1, 2 * s - 1), 3, 2 * s - 1) * &
+                                       spread(spread(correlation(:, 3), 1, 2 * s - 1), 2, 2 * s - 1), [stride])
+        end do
+        ! approximations of these pairs, stored at their place in the chunk: order(q:) - first_pair + 1
+        call dgemm('N', 'N', nb * nb, n_near, stride, 1.0_dp, gathered, nb * nb, pair_weights, stride, 0.0_dp, &
+                   exact_batch, nb * nb)
+        do k = 1, n_near
+          approximate(:, :, order(q + k - 1) - first_pair + 1) = exact_batch(:, :, k)
+        end do
       end do
+      ! C_ij = exact - approximate, a row of blocks at a time
+      p = first_pair
+      do while (p <= last_pair)
+        q = p
+        do while (q < last_pair)
+          if (pair_row(q + 1) /= pair_row(p)) exit
+          q = q + 1
+        end do
+        allocate (row_values(nb * (q - p + 1), nb), columns(nb * (q - p + 1)))
+        do k = p, q
+          if (pair_row(k) == pair_column(k)) then
+            exact = op%self_block
+          else
+            call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
+          end if
+          row_values((k - p) * nb + 1:(k - p + 1) * nb, :) = transpose(exact - approximate(:, :, k - first_pair + 1))
+          columns((k - p) * nb + 1:(k - p + 1) * nb) = int((pair_column(k) - 1) * nb) + [(a - 1, a = 1, nb)]
+        end do
+        rows = int((pair_row(p) - 1) * nb) + [(a - 1, a = 1, nb)]
+        PetscCallA(MatSetValues(op%correction, nb, rows, int(size(columns)), columns, row_values, INSERT_VALUES, ierr))
+        deallocate (row_values, columns)
+        p = q + 1
+      end do
+      first_pair = last_pair + 1
     end do
     PetscCallA(MatAssemblyBegin(op%correction, MAT_FINAL_ASSEMBLY, ierr))
     PetscCallA(MatAssemblyEnd(op%correction, MAT_FINAL_ASSEMBLY, ierr))
