@@ -33,6 +33,8 @@ module beadmob_friction_job
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
             operator_option, companion_orders
 
+  !> Off-lattice models from this many beads get the pfft operator under 'auto' (choose_operator).
+  integer, parameter :: pfft_min_beads = 1000
   character(len=*), parameter :: phase_names(6) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
                                                    'companion', 'lubrication', 'total']
 
@@ -103,6 +105,8 @@ module beadmob_friction_job
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
+    integer :: pfft_stencil = 0                    ! the pfft operator's (0: another operator)
+    real(dp) :: pfft_near_radius = 0.0_dp
     integer(i8) :: near_field_pairs = 0            ! pair blocks in the preconditioning matrix
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0
@@ -255,6 +259,8 @@ contains
         return
       end if
       result%computed_blocks = pfft_op%grid%table%computed_blocks
+      result%pfft_stencil = pfft_op%stencil
+      result%pfft_near_radius = pfft_op%near_radius
       self = pfft_op%self_block
     else
       direct_op%table%cache_file = trim(settings%cache_file)
@@ -573,7 +579,9 @@ contains
   !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
   !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
   !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
-  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads).
+  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the
+  !> precorrected FFT from pfft_min_beads on (the direct operator stores N^2 / P blocks: 4.6 GB
+  !> per rank for 2000 beads on 2 ranks; bench/offlattice.md); below that the exact direct one.
   subroutine choose_operator(requested, centres, block_size, chosen, err)
     character(len=*), intent(in) :: requested
     real(dp), intent(in) :: centres(:, :)
@@ -595,6 +603,8 @@ contains
         direct_work = real(size(centres, 2), dp)**2 * block_size
         fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
         if (direct_work > fft_work) chosen = 'fft'
+      else if (size(centres, 2) >= pfft_min_beads) then
+        chosen = 'pfft'
       end if
     case default
       chosen = ''
