@@ -78,7 +78,7 @@ contains
       'Options of beadmob (after INPUT.nml):', &
       '  -operator direct|fft|pfft|auto  the bead operator (default auto: the faster one for the job)', &
       '  -pfft_near_radius R, -pfft_stencil S  off-lattice far field: exact pairs within R (d,', &
-      '                              default 4), interpolation on S^3 grid points (default 4)', &
+      '                              default 3), interpolation on S^3 grid points (default 4)', &
       '  -fft_planner measure|estimate  FFTW plans: measured (default, faster) or reproducible', &
       '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
       '  -near_field_cluster C       and pairs within the same C x C x C cube of lattice cells', &

@@ -34,12 +34,16 @@ module beadmob_pfft_operator
     integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
     !> Interpolation points per axis (degree + 1) and the near radius (d): set before create.
     integer :: stencil = 4
-    real(dp) :: near_radius = 4.0_dp
+    real(dp) :: near_radius = 3.0_dp
     real(dp), allocatable :: self_block(:, :)
     type(fft_operator_t) :: grid
     integer(i8) :: n_grid = 0          ! grid nodes carrying a stencil
     integer(i8) :: near_pairs = 0      ! near pairs of this rank's rows (i = j included)
-    Mat :: grid_matrix, interpolation, correction
+    !> C is block-sparse (PETSc BAIJ, block size nb: 8 bytes per entry). With a companion in view
+    !> (create_pfft_operator's companion_unknowns) its sub-blocks are assembled in the same pass
+    !> (a BAIJ matrix has no sub-matrix of part of each block), kept here until the companion takes them.
+    Mat :: grid_matrix, interpolation, correction, companion_correction
+    logical :: has_companion_correction = .false.
     Vec :: grid_x, grid_y
     logical :: created = .false.
   end type pfft_operator_t
@@ -121,8 +125,9 @@ contains
   end subroutine pfft_grid_nodes
 
   !> Collective. op%stencil and op%near_radius as wanted before the call. `op` must stay in place
-  !> while `matrix` lives. keep_lattice: for a companion (create_pfft_companion).
-  subroutine create_pfft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report, keep_lattice)
+  !> while `matrix` lives. companion_unknowns: the sub-basis of a companion to come
+  !> (create_pfft_companion), whose parts are then kept.
+  subroutine create_pfft_operator(comm, basis, centres, first_bead, n_local, op, matrix, err, report, companion_unknowns)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
@@ -131,7 +136,7 @@ contains
     Mat, intent(out) :: matrix
     type(error_t), intent(inout) :: err
     logical, intent(in) :: report
-    logical, intent(in), optional :: keep_lattice
+    integer, intent(in), optional :: companion_unknowns(:)
     integer, allocatable :: first(:, :), node_id(:, :, :)
     real(dp), allocatable :: weights(:, :, :), nodes(:, :)
     integer(i8) :: grid_first, grid_count
@@ -159,10 +164,11 @@ contains
     if (rank < mod(op%n_grid, int(n_ranks, i8))) grid_count = grid_count + 1
     call progress_line(report, 'pfft grid: ' // str(op%n_grid) // ' nodes carry the stencils of ' // &
                        str(op%stencil) // '^3 points; near radius ' // str(op%near_radius) // ' d')
-    call create_fft_operator(comm, basis, nodes, grid_first, grid_count, op%grid, op%grid_matrix, err, report, keep_lattice)
+    call create_fft_operator(comm, basis, nodes, grid_first, grid_count, op%grid, op%grid_matrix, err, report, &
+                             keep_lattice=present(companion_unknowns))
     if (err%failed) return
     call assemble_interpolation(comm, op, first, weights, node_id)
-    call assemble_correction(comm, basis, op, centres, first, weights)
+    call assemble_correction(comm, basis, op, centres, first, weights, companion_unknowns)
     PetscCallA(MatCreateVecs(op%grid_matrix, op%grid_x, op%grid_y, ierr))
     call make_shell(comm, op, matrix)
     call progress_line(report, 'pfft operator: ' // str(op%near_pairs) // ' near pairs on rank 0 (' // &
@@ -238,20 +244,21 @@ contains
   !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
   !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once
   !> per offset instead of once per pair).
-  subroutine assemble_correction(comm, basis, op, centres, first, weights)
+  subroutine assemble_correction(comm, basis, op, centres, first, weights, companion_unknowns)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     type(pfft_operator_t), intent(inout) :: op
     real(dp), intent(in) :: centres(:, :)
     integer, intent(in) :: first(:, :)
     real(dp), intent(in) :: weights(:, :, :)
+    integer, intent(in), optional :: companion_unknowns(:)
     type(axial_table_t) :: axial
     real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
-                             exact_batch(:, :, :), row_values(:, :)
+                             exact_batch(:, :, :), row_values(:), low_values(:)
     real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
     integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
-    PetscInt, allocatable :: diagonal(:), off_diagonal(:), rows(:), columns(:)
-    PetscInt :: local_rows, global_rows
+    PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
+    PetscInt :: local_rows, global_rows, block_row(1), nb_petsc, low_size
     PetscErrorCode :: ierr
     integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), a, offsets, width, n_pairs, p, q, e, stride, chunk, &
                first_pair, last_pair
@@ -278,13 +285,13 @@ contains
     local_rows = int(op%n_local * nb)
     global_rows = int(op%n_beads * nb)
     last_bead = op%first_bead + op%n_local - 1
-    allocate (diagonal(local_rows), off_diagonal(local_rows), near(op%n_beads))
+    allocate (diagonal(op%n_local), off_diagonal(op%n_local), near(op%n_beads))
     n_pairs = 0
     do i = 1, op%n_local
       call near_beads(op%first_bead + i - 1)
       k = count(near(1:n_near) >= op%first_bead .and. near(1:n_near) <= last_bead)
-      diagonal((i - 1) * nb + 1:i * nb) = k * nb
-      off_diagonal((i - 1) * nb + 1:i * nb) = (n_near - k) * nb
+      diagonal(i) = k
+      off_diagonal(i) = n_near - k
       n_pairs = n_pairs + n_near
     end do
     allocate (pair_row(n_pairs), pair_column(n_pairs))
@@ -296,7 +303,13 @@ contains
       n_pairs = n_pairs + n_near
     end do
     op%near_pairs = n_pairs
-    PetscCallA(MatCreateAIJ(comm, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+    nb_petsc = nb
+    PetscCallA(MatCreateBAIJ(comm, nb_petsc, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+    op%has_companion_correction = present(companion_unknowns)
+    if (op%has_companion_correction) then
+      low_size = size(companion_unknowns)
+      PetscCallA(MatCreateBAIJ(comm, low_size, int(op%n_local) * low_size, int(op%n_local) * low_size, int(op%n_beads) * low_size, int(op%n_beads) * low_size, 0, diagonal, 0, off_diagonal, op%companion_correction, ierr))
+    end if
 
     ! Rows in chunks of at most ~64 MB of blocks: in a chunk, the pairs sorted by stencil offset
     ! (counting sort) share the gathered kernel blocks; then each row is inserted at once with its
@@ -312,7 +325,7 @@ contains
     end do
     allocate (gathered(nb * nb, stride), pair_weights(stride, min(chunk, max(n_pairs, 1))), &
               approximate(nb, nb, min(chunk, max(n_pairs, 1))), exact_batch(nb, nb, min(chunk, max(n_pairs, 1))), &
-              exact(nb, nb), rows(nb))
+              exact(nb, nb))
     first_pair = 1
     do while (first_pair <= n_pairs)
       ! whole rows only: the chunk ends where a row ends
@@ -388,18 +401,26 @@ contains
           if (pair_row(q + 1) /= pair_row(p)) exit
           q = q + 1
         end do
-        allocate (row_values(nb * (q - p + 1), nb), columns(nb * (q - p + 1)))
+        allocate (row_values(nb * nb * (q - p + 1)), columns(q - p + 1))
+        if (op%has_companion_correction) allocate (low_values(low_size * low_size * (q - p + 1)))
         do k = p, q
           if (pair_row(k) == pair_column(k)) then
             exact = op%self_block
           else
             call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
           end if
-          row_values((k - p) * nb + 1:(k - p + 1) * nb, :) = transpose(exact - approximate(:, :, k - first_pair + 1))
-          columns((k - p) * nb + 1:(k - p + 1) * nb) = int((pair_column(k) - 1) * nb) + [(a - 1, a = 1, nb)]
+          exact = exact - approximate(:, :, k - first_pair + 1)
+          call place_block(exact, k - p, q - p + 1, row_values)
+          if (op%has_companion_correction) &
+            call place_block(exact(companion_unknowns, companion_unknowns), k - p, q - p + 1, low_values)
+          columns(k - p + 1) = pair_column(k) - 1
         end do
-        rows = int((pair_row(p) - 1) * nb) + [(a - 1, a = 1, nb)]
-        PetscCallA(MatSetValues(op%correction, nb, rows, int(size(columns)), columns, row_values, INSERT_VALUES, ierr))
+        block_row(1) = pair_row(p) - 1
+        PetscCallA(MatSetValuesBlocked(op%correction, 1, block_row, int(size(columns)), columns, row_values, INSERT_VALUES, ierr))
+        if (op%has_companion_correction) then
+          PetscCallA(MatSetValuesBlocked(op%companion_correction, 1, block_row, int(size(columns)), columns, low_values, INSERT_VALUES, ierr))
+          deallocate (low_values)
+        end if
         deallocate (row_values, columns)
         p = q + 1
       end do
@@ -407,8 +428,25 @@ contains
     end do
     PetscCallA(MatAssemblyBegin(op%correction, MAT_FINAL_ASSEMBLY, ierr))
     PetscCallA(MatAssemblyEnd(op%correction, MAT_FINAL_ASSEMBLY, ierr))
+    if (op%has_companion_correction) then
+      PetscCallA(MatAssemblyBegin(op%companion_correction, MAT_FINAL_ASSEMBLY, ierr))
+      PetscCallA(MatAssemblyEnd(op%companion_correction, MAT_FINAL_ASSEMBLY, ierr))
+    end if
 
   contains
+
+    !> Block number `slot` of `blocks` blocks in PETSc's values of one block row: row-major over
+    !> the (block size) x (blocks x block size) dense rows.
+    pure subroutine place_block(block, slot, blocks, values)
+      real(dp), intent(in) :: block(:, :)
+      integer, intent(in) :: slot, blocks
+      PetscScalar, intent(inout) :: values(:)
+      integer :: r, size_
+      size_ = size(block, 1)
+      do r = 1, size_
+        values((r - 1) * size_ * blocks + slot * size_ + 1:(r - 1) * size_ * blocks + (slot + 1) * size_) = block(r, :)
+      end do
+    end subroutine place_block
 
     !> near(1:n_near): the beads closer than the near radius to bead b (b itself included).
     subroutine near_beads(b)
@@ -438,9 +476,10 @@ contains
     op%created = .true.
   end subroutine make_shell
 
-  !> Collective. The operator of the sub-basis `unknowns` (theory.md T14): the grid's companion
-  !> and the sub-matrices of I and C (a block entry depends on its two functions only). The
-  !> parent must have been created with keep_lattice and outlive the companion.
+  !> Collective. The operator of the sub-basis `unknowns` (theory.md T14): the grid's companion,
+  !> the sub-matrix of I and the companion C assembled with the parent (a block entry depends on
+  !> its two functions only). The parent must have been created with these companion_unknowns
+  !> and outlive the companion.
   subroutine create_pfft_companion(comm, parent, unknowns, companion, matrix, err)
     MPI_Comm, intent(in) :: comm
     type(pfft_operator_t), target, intent(inout) :: parent
@@ -459,12 +498,17 @@ contains
     companion%self_block = parent%self_block(unknowns, unknowns)
     companion%n_grid = parent%n_grid
     companion%near_pairs = parent%near_pairs
+    if (.not. parent%has_companion_correction) then
+      call raise(err, 'internal: the pfft operator was created without its companion''s unknowns')
+      return
+    end if
     call create_fft_companion(comm, parent%grid, unknowns, companion%grid, companion%grid_matrix, err)
     if (err%failed) return
     call sub_unknowns(parent%first_bead, parent%n_local, bead_rows)
     call sub_unknowns(parent%grid%first_bead, parent%grid%n_local, grid_rows)
     PetscCallA(MatCreateSubMatrix(parent%interpolation, bead_rows, grid_rows, MAT_INITIAL_MATRIX, companion%interpolation, ierr))
-    PetscCallA(MatCreateSubMatrix(parent%correction, bead_rows, bead_rows, MAT_INITIAL_MATRIX, companion%correction, ierr))
+    companion%correction = parent%companion_correction   ! taken over: the companion destroys it
+    parent%has_companion_correction = .false.
     PetscCallA(ISDestroy(bead_rows, ierr))
     PetscCallA(ISDestroy(grid_rows, ierr))
     PetscCallA(MatCreateVecs(companion%grid_matrix, companion%grid_x, companion%grid_y, ierr))
@@ -500,6 +544,10 @@ contains
     end if
     PetscCallA(MatDestroy(op%interpolation, ierr))
     PetscCallA(MatDestroy(op%correction, ierr))
+    if (op%has_companion_correction) then
+      PetscCallA(MatDestroy(op%companion_correction, ierr))
+      op%has_companion_correction = .false.
+    end if
     PetscCallA(VecDestroy(op%grid_x, ierr))
     PetscCallA(VecDestroy(op%grid_y, ierr))
     call destroy_fft_operator(op%grid, op%grid_matrix)

@@ -48,7 +48,7 @@ module beadmob_friction_job
     !> The precorrected-FFT operator of off-lattice beads (pfft_operator.F90): interpolation points
     !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost)
     integer :: pfft_stencil = 4
-    real(dp) :: pfft_near_radius = 4.0_dp
+    real(dp) :: pfft_near_radius = 3.0_dp
     !> FFTW planner of the FFT operator: 'measure' (faster products) or 'estimate' (bitwise
     !> reproducible from run to run)
     character(len=16) :: fft_planner = 'measure'
@@ -250,8 +250,12 @@ contains
       pfft_op%stencil = settings%pfft_stencil
       pfft_op%near_radius = settings%pfft_near_radius
       pfft_op%grid%measure_plans = settings%fft_planner == 'measure'
-      call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report, &
-                                keep_lattice=with_companion)
+      if (with_companion) then
+        call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report, &
+                                  companion_unknowns=companion_unknowns(basis))
+      else
+        call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report)
+      end if
       call agree_on_error(ctx, err)
       if (err%failed) then
         call destroy_pfft_operator(pfft_op, matrix)
@@ -320,7 +324,7 @@ contains
       call companion_orders(settings%order, settings%potential_order, result%companion_order, &
                             result%companion_potential_order)
       low = make_multipole_basis(result%companion_order, result%companion_potential_order)
-      unknowns = sub_basis(basis, low)
+      unknowns = companion_unknowns(basis)
       allocate (low_start(size(unknowns) * count, 6))
     end if
     call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
@@ -483,6 +487,15 @@ contains
     low_order = order - 1
     low_potential_order = max(potential_order - 1, 0)
   end subroutine companion_orders
+
+  !> The companion's unknowns in the order-L basis `basis`: the functions of order L - 1 (companion_orders).
+  pure function companion_unknowns(basis) result(unknowns)
+    type(multipole_basis_t), intent(in) :: basis
+    integer, allocatable :: unknowns(:)
+    integer :: low_order, low_potential_order
+    call companion_orders(basis%order, basis%potential_order, low_order, low_potential_order)
+    unknowns = sub_basis(basis, make_multipole_basis(low_order, low_potential_order))
+  end function companion_unknowns
 
   !> Index in `basis` of each function of `low` (same degree, family and harmonic; the functions
   !> and their normalisation do not depend on the truncation, multipole_basis.f90).

@@ -5,13 +5,14 @@
 !>  2. The rotations O^n of the real harmonics are orthogonal and compose: O(Q1 Q2) = O(Q1) O(Q2).
 !>  3. The precorrected-FFT operator (pfft_operator.F90): on lattice beads its interpolation is
 !>     exact and its product equals the direct operator's to 1e-12; on jittered beads, at the
-!>     default stencil (4 points) and near radius (4 d), it equals the direct product to 1e-2 of
-!>     the product's max-norm for a random x (measured 3.4e-3: a random x is all high multipoles,
-!>     which interpolate worst; the friction is far closer, item 4) and is symmetric.
+!>     default stencil (4 points) and near radius (3 d), it equals the direct product to 3e-2 of
+!>     the product's max-norm for a random x (measured 1.3e-2; 3.4e-3 at 4 d: a random x is all
+!>     high multipoles, which interpolate worst; the friction is far closer, item 4) and is symmetric.
 !>  4. A lattice body turned by a rotation that is no lattice symmetry: the friction of the turned
 !>     beads (pfft operator) is R zeta R^T of the lattice run (FFT operator), R = diag(Q, Q), the
-!>     Galerkin method being exactly covariant; the pfft far field leaves 1.2e-4 (measured), checked
-!>     to 3e-4 (a 2000-bead cluster: 8e-6, bench/offlattice.md).
+!>     Galerkin method being exactly covariant; the pfft far field leaves 4.4e-4 on this small
+!>     slender body (measured; 1.2e-4 at near radius 4 d), checked to 1e-3 (a 2000-bead cluster:
+!>     4e-5, bench/offlattice.md).
 program test_offlattice
 #include "petsc/finclude/petscmat.h"
   use petscmat
@@ -42,7 +43,7 @@ program test_offlattice
   end do
   call check_rotations(5)
   call compare_products(lattice_box([5, 4, 3]), 1.0e-12_dp, 'lattice box 5 x 4 x 3')
-  call compare_products(jittered([7, 6, 5]), 1.0e-2_dp, 'jittered 7 x 6 x 5 cluster')
+  call compare_products(jittered([7, 6, 5]), 3.0e-2_dp, 'jittered 7 x 6 x 5 cluster')
   call check_turned_body()
 
   call finish_tests(suite)
@@ -120,8 +121,6 @@ contains
     basis = make_multipole_basis(2, 0)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
     call create_bead_operator(ctx%comm, basis, centres, first, count, direct, direct_matrix, err)
-    fast%stencil = 4
-    fast%near_radius = 4.0_dp
     if (.not. err%failed) call create_pfft_operator(ctx%comm, basis, centres, first, count, fast, pfft_matrix, err, .false.)
     call check(suite, .not. err%failed, label // ': operators created')
     if (err%failed) return
@@ -192,7 +191,7 @@ contains
     r(4:6, 4:6) = q
     expected = matmul(r, matmul(lattice_result%multipole_friction, transpose(r)))
     difference = maxval(abs(turned_result%multipole_friction - expected)) / maxval(abs(expected))
-    call check(suite, difference <= 3.0e-4_dp, 'turned ' // str(size(body, 2)) // '-bead body: pfft friction = ' // &
+    call check(suite, difference <= 1.0e-3_dp, 'turned ' // str(size(body, 2)) // '-bead body: pfft friction = ' // &
                'R zeta R^T of the lattice run, relative difference ' // str(difference))
   end subroutine check_turned_body
 
