@@ -77,6 +77,12 @@ contains
       call describe_solve(centres)
     end if
     if (err%failed) return   ! agreed on in describe_solve
+    if (operator_name == 'pfft') then
+      ! the grid of the stencils (pfft_operator.F90): the beads' extent and a stencil's width
+      do i = 1, 3
+        spans(i) = ceiling(maxval(centres(i, :)) - minval(centres(i, :))) + settings%pfft_stencil - 1
+      end do
+    end if
     ! More ranks than processors on a node share them: the times grow by that factor (the largest
     ! over the nodes). An estimate for -estimate_ranks assumes a processor per rank.
     oversubscription = real(ctx%ranks_on_node, dp) / online_processors()
@@ -85,7 +91,7 @@ contains
     estimate = estimate_job(size(centres, 2, kind=i8), solve_beads, spans, on_lattice, settings%order, &
                             settings%potential_order, trim(operator_name), ranks, n_solves, &
                             settings%shell_layers > 0 .and. on_lattice, oversubscription, &
-                            settings%companion .and. all(settings%motions))
+                            settings%companion .and. all(settings%motions), settings%pfft_near_radius)
 
     ! What a rank may use: the node's available memory shared by the ranks on it (the least over
     ! the nodes), or -memory_limit.
@@ -144,8 +150,8 @@ contains
     write (*, '(a)') 'beadmob: estimate for ' // str(e%n_ranks) // ' rank(s) (dry run: nothing built, no result file)'
     write (*, '(a)') '  beads:                ' // str(e%n_beads) // ' (' // str(e%solve_beads) // ' in the solve)'
     write (*, '(a)') '  unknowns:             ' // str(e%unknowns) // ' (' // str(e%unknowns_per_bead) // ' per bead)'
-    if (e%operator_name == 'fft') then
-      write (*, '(a)') '  operator:             fft, padded box ' // str(e%fft_box(1)) // ' x ' // str(e%fft_box(2)) // &
+    if (e%operator_name == 'fft' .or. e%operator_name == 'pfft') then
+      write (*, '(a)') '  operator:             ' // trim(e%operator_name) // ', padded box ' // str(e%fft_box(1)) // ' x ' // str(e%fft_box(2)) // &
         ' x ' // str(e%fft_box(3)) // ' (slabs of ' // str(e%fft_box(3)) // ' planes: at most ' // &
         str(e%fft_box(2)) // ' ranks hold frequencies, more ranks do not pay)'
     else
@@ -168,7 +174,7 @@ contains
     type(job_estimate_t), intent(in) :: e
     character(len=256) :: text
     text = 'base ' // gib_text(e%base) // ', geometry ' // gib_text(e%geometry) // ', blocks ' // gib_text(e%blocks) // &
-           ', ' // either(e%operator_name == 'fft', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
+           ', ' // either(e%operator_name /= 'direct', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
            ', FFT buffer ' // gib_text(e%fft_buffer) // ', transposes ' // gib_text(e%transposes) // &
            ', vectors ' // gib_text(e%vectors) // either(e%companion > 0, ', companion ' // gib_text(e%companion), '')
   end function breakdown

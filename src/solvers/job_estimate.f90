@@ -8,6 +8,9 @@
 !>                                                                                  (FFT operator)
 !>   base + geometry N + canonical + expanded box table + vectors                     (direct, lattice)
 !>   base + geometry N + N n_local nb^2 8 B + vectors                                 (direct, off-lattice)
+!>   the FFT operator's terms for the grid + near pairs n_local (4/3) pi r^3 nb^2 8 B   (pfft, off-lattice)
+!>     (at most one bead per d^3 within the near radius r: the lattice's density, above a
+!>     jittered cluster's 0.75)
 !> (the companion of the error bar, theory.md T14: its FFT buffer, transposes, vectors and start,
 !> or for the direct operator its sub-blocks, while the order-L operator is still held)
 !> with the FFT sizes of FFTW's slab decomposition (ceil(n/P) planes on the largest rank). Time:
@@ -71,22 +74,24 @@ contains
 
   !> n_beads: all beads (replicated geometry); solve_beads, spans: the beads in the solve and
   !> their lattice spans (max - min of the integer coordinates; ignored off the lattice);
-  !> operator_name: 'fft' or 'direct' as chosen for the job; n_solves: Krylov solves (6, fewer
+  !> operator_name: 'fft', 'pfft' or 'direct' as chosen for the job (for 'pfft', spans are those
+  !> of its grid and near_radius its radius of exact pairs); n_solves: Krylov solves (6, fewer
   !> with motions or symmetries).
   !> shell: a shell model (fewer CG iterations); oversubscription: ranks per processor on the
   !> busiest node (>= 1), which the times scale by. companion: the error bar's companion solve of
   !> order L - 1 is made too.
   pure function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                             n_ranks, n_solves, shell, oversubscription, companion) result(e)
+                             n_ranks, n_solves, shell, oversubscription, companion, near_radius) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
     logical, intent(in) :: shell, companion
     real(dp), intent(in) :: oversubscription
     logical, intent(in) :: on_lattice
     character(len=*), intent(in) :: operator_name
+    real(dp), intent(in), optional :: near_radius
     type(job_estimate_t) :: e
     real(dp) :: nb, packed, local_beads, block_bytes, sites, frequencies, real_planes, freq_planes, quadrature, &
-                products, product_seconds, extent(3), nb_low, low_products, low_product_seconds, low_buffer
+                products, product_seconds, extent(3), nb_low, low_products, low_product_seconds, low_buffer, near_pairs
     integer :: widths(3)
 
     e%n_beads = n_beads
@@ -115,7 +120,7 @@ contains
     if (companion .and. order >= 2) nb_low = real(basis_size(order - 1, max(potential_order - 1, 0)), dp)
     low_products = real(n_solves, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
 
-    if (on_lattice) then
+    if (on_lattice .or. operator_name == 'pfft') then
       ! Canonical displacements: c(k) <= the k-th largest span.
       extent = real([maxval(spans), sum(spans) - maxval(spans) - minval(spans), minval(spans)], dp)
       e%canonical_blocks = canonical_blocks_of(extent)
@@ -124,7 +129,7 @@ contains
       e%canonical_blocks = 0
     end if
 
-    if (operator_name == 'fft') then
+    if (operator_name == 'fft' .or. operator_name == 'pfft') then
       e%fft_box = fft_box_of_spans(spans)
       sites = product(real(e%fft_box, dp))
       ! FFTW slabs: real space split along the slow axis, the transposed spectrum along the middle one.
@@ -146,6 +151,16 @@ contains
                          + multiply_seconds * packed * sites / 2) / e%n_ranks
       low_product_seconds = (2 * fft_seconds * nb_low * sites * log(sites) / log(2.0_dp) &
                              + multiply_seconds * nb_low * (nb_low + 1) / 2 * sites / 2) / e%n_ranks
+      if (operator_name == 'pfft' .and. present(near_radius)) then
+        ! the near-pair corrections (and the companion's), in the blocks term: held from set-up on
+        near_pairs = local_beads * min(real(solve_beads, dp), 4.0_dp / 3.0_dp * acos(-1.0_dp) * near_radius**3)
+        e%blocks = e%blocks + near_pairs * (block_bytes + 8 * nb_low**2)
+        e%peak = e%base + e%geometry + e%kernel + e%fft_buffer + e%transposes + e%blocks + max(e%vectors, e%companion)
+        ! per pair: its share of one BLAS product over 343 kernel blocks, and its turned block
+        e%seconds_blocks = e%seconds_blocks + near_pairs * (0.1_dp * direct_seconds * nb**2 * 343 + quadrature / 100)
+        product_seconds = product_seconds + direct_seconds * nb**2 * near_pairs
+        low_product_seconds = low_product_seconds + direct_seconds * nb_low**2 * near_pairs
+      end if
     else
       if (on_lattice) then
         widths = 2 * spans + 1
