@@ -11,18 +11,21 @@ module beadmob_bead_operator
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   implicit none
   private
   public :: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
 
   !> The MATSHELL context: what a product needs, set once.
-  type :: bead_operator_t
-    integer :: block_size = 0
-    integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
-    real(dp), allocatable :: self_block(:, :)
+  type, extends(multipole_operator_t) :: bead_operator_t
     type(block_table_t) :: table
     VecScatter :: gather
     Vec :: gathered
+    logical :: made = .false.
+  contains
+    procedure :: create => create_direct
+    procedure :: create_companion => direct_companion
+    procedure :: destroy => destroy_direct
   end type bead_operator_t
 
   interface
@@ -45,6 +48,52 @@ module beadmob_bead_operator
   end interface
 
 contains
+
+  !> multipole_operator_t%create: the cache file of the options (lattice models).
+  subroutine create_direct(this, comm, basis, centres, first_bead, n_local, options, err)
+    class(bead_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :)
+    integer(i8), intent(in) :: first_bead, n_local
+    type(operator_options_t), intent(in) :: options
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    if (allocated(options%cache_file)) this%table%cache_file = options%cache_file
+    call create_bead_operator(comm, basis, centres, first_bead, n_local, this, matrix, err)
+    if (err%failed) return
+    this%matrix = matrix
+    this%made = .true.
+    this%on_lattice = this%table%on_lattice
+    this%computed_blocks = this%table%computed_blocks
+    this%cached_blocks = this%table%cached_blocks
+  end subroutine create_direct
+
+  subroutine direct_companion(this, comm, unknowns, companion, err)
+    class(bead_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    integer, intent(in) :: unknowns(:)
+    class(multipole_operator_t), allocatable, target, intent(inout) :: companion
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    if (err%failed) return
+    allocate (bead_operator_t :: companion)
+    select type (companion)
+    type is (bead_operator_t)
+      call create_bead_companion(comm, this, unknowns, companion, matrix)
+      companion%matrix = matrix
+      companion%made = .true.
+    end select
+  end subroutine direct_companion
+
+  subroutine destroy_direct(this)
+    class(bead_operator_t), intent(inout) :: this
+    Mat :: matrix
+    if (.not. this%made) return
+    matrix = this%matrix
+    call destroy_bead_operator(this, matrix)
+    this%made = .false.
+  end subroutine destroy_direct
 
   !> Collective. `op` must stay in place (not be moved or copied) while `matrix` lives: PETSc
   !> keeps its address. On error (err set on some rank) no matrix is created.

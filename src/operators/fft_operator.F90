@@ -42,6 +42,7 @@ module beadmob_fft_operator
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   implicit none
   private
   public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion
@@ -117,10 +118,7 @@ module beadmob_fft_operator
   end interface
 
   !> The MATSHELL context: kernel, plans, buffer and scatter, set once.
-  type :: fft_operator_t
-    integer :: block_size = 0
-    integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
-    real(dp), allocatable :: self_block(:, :)
+  type, extends(multipole_operator_t) :: fft_operator_t
     !> The lattice (on_lattice, span, lattice, computed_blocks) and its compact block table (the
     !> canonical blocks), freed once the kernel is transformed.
     type(block_table_t) :: table
@@ -148,6 +146,10 @@ module beadmob_fft_operator
     Vec :: slab          ! PETSc view of real_data (this rank's real-space slab)
     VecScatter :: to_slab
     logical :: created = .false.
+  contains
+    procedure :: create => create_fft
+    procedure :: create_companion => fft_companion
+    procedure :: destroy => destroy_fft
   end type fft_operator_t
 
   !> fftw_mpi_init once per process (a second call would be harmless but is not promised).
@@ -173,6 +175,50 @@ module beadmob_fft_operator
   end interface
 
 contains
+
+  !> multipole_operator_t%create: cache file, FFTW planner, progress lines and the companion's
+  !> needs (the lattice) from the options.
+  subroutine create_fft(this, comm, basis, centres, first_bead, n_local, options, err)
+    class(fft_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :)
+    integer(i8), intent(in) :: first_bead, n_local
+    type(operator_options_t), intent(in) :: options
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    if (allocated(options%cache_file)) this%table%cache_file = options%cache_file
+    this%measure_plans = options%measure_plans
+    call create_fft_operator(comm, basis, centres, first_bead, n_local, this, matrix, err, options%report, &
+                             keep_lattice=allocated(options%companion_unknowns))
+    if (err%failed) return
+    this%matrix = matrix
+    this%on_lattice = .true.
+    this%computed_blocks = this%table%computed_blocks
+    this%cached_blocks = this%table%cached_blocks
+  end subroutine create_fft
+
+  subroutine fft_companion(this, comm, unknowns, companion, err)
+    class(fft_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    integer, intent(in) :: unknowns(:)
+    class(multipole_operator_t), allocatable, target, intent(inout) :: companion
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    allocate (fft_operator_t :: companion)
+    select type (companion)
+    type is (fft_operator_t)
+      call create_fft_companion(comm, this, unknowns, companion, matrix, err)
+      if (companion%created) companion%matrix = matrix
+    end select
+  end subroutine fft_companion
+
+  subroutine destroy_fft(this)
+    class(fft_operator_t), intent(inout) :: this
+    Mat :: matrix
+    matrix = this%matrix
+    call destroy_fft_operator(this, matrix)
+  end subroutine destroy_fft
 
   !> Smallest n >= minimum whose prime factors are 2, 3, 5, 7 (FFTW's fastest sizes).
   pure integer function fft_size(minimum)

@@ -25,17 +25,15 @@ module beadmob_pfft_operator
   use beadmob_lapack, only: dgemm
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   implicit none
   private
   public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
 
-  type :: pfft_operator_t
-    integer :: block_size = 0
-    integer(i8) :: n_beads = 0, first_bead = 1, n_local = 0
+  type, extends(multipole_operator_t) :: pfft_operator_t
     !> Interpolation points per axis (degree + 1) and the near radius (d): set before create.
     integer :: stencil = 4
     real(dp) :: near_radius = 3.0_dp
-    real(dp), allocatable :: self_block(:, :)
     type(fft_operator_t) :: grid
     integer(i8) :: n_grid = 0          ! grid nodes carrying a stencil
     integer(i8) :: near_pairs = 0      ! near pairs of this rank's rows (i = j included)
@@ -46,6 +44,10 @@ module beadmob_pfft_operator
     logical :: has_companion_correction = .false.
     Vec :: grid_x, grid_y
     logical :: created = .false.
+  contains
+    procedure :: create => create_pfft
+    procedure :: create_companion => pfft_companion
+    procedure :: destroy => destroy_pfft
   end type pfft_operator_t
 
   interface
@@ -68,6 +70,53 @@ module beadmob_pfft_operator
   end interface
 
 contains
+
+  !> multipole_operator_t%create: stencil, near radius, FFTW planner, progress and the
+  !> companion's unknowns from the options.
+  subroutine create_pfft(this, comm, basis, centres, first_bead, n_local, options, err)
+    class(pfft_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :)
+    integer(i8), intent(in) :: first_bead, n_local
+    type(operator_options_t), intent(in) :: options
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    this%stencil = options%pfft_stencil
+    this%near_radius = options%pfft_near_radius
+    this%grid%measure_plans = options%measure_plans
+    if (allocated(options%companion_unknowns)) then
+      call create_pfft_operator(comm, basis, centres, first_bead, n_local, this, matrix, err, options%report, &
+                                options%companion_unknowns)
+    else
+      call create_pfft_operator(comm, basis, centres, first_bead, n_local, this, matrix, err, options%report)
+    end if
+    if (err%failed) return
+    this%matrix = matrix
+    this%computed_blocks = this%grid%table%computed_blocks
+  end subroutine create_pfft
+
+  subroutine pfft_companion(this, comm, unknowns, companion, err)
+    class(pfft_operator_t), target, intent(inout) :: this
+    MPI_Comm, intent(in) :: comm
+    integer, intent(in) :: unknowns(:)
+    class(multipole_operator_t), allocatable, target, intent(inout) :: companion
+    type(error_t), intent(inout) :: err
+    Mat :: matrix
+    allocate (pfft_operator_t :: companion)
+    select type (companion)
+    type is (pfft_operator_t)
+      call create_pfft_companion(comm, this, unknowns, companion, matrix, err)
+      if (companion%created) companion%matrix = matrix
+    end select
+  end subroutine pfft_companion
+
+  subroutine destroy_pfft(this)
+    class(pfft_operator_t), intent(inout) :: this
+    Mat :: matrix
+    matrix = this%matrix
+    call destroy_pfft_operator(this, matrix)
+  end subroutine destroy_pfft
 
   !> The grid of `centres` for a stencil of `stencil` points per axis: first(:, j), the lowest
   !> stencil node of bead j (grid coordinates from the lowest corner), and the 1-D Lagrange
@@ -260,9 +309,9 @@ contains
     PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
     PetscInt :: local_rows, global_rows, block_row(1), nb_petsc, low_size
     PetscErrorCode :: ierr
-    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), a, offsets, width, n_pairs, p, q, e, stride, chunk, &
+    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), offsets, width, n_pairs, p, q, e, stride, chunk, &
                first_pair, last_pair
-    integer(i8) :: i, bead, last_bead
+    integer(i8) :: i, last_bead
     nb = op%block_size
     s = op%stencil
     call make_axial_table(basis, axial)

@@ -11,10 +11,9 @@ module beadmob_friction_job
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_pair_blocks, only: rigid_projection
-  use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
-  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, &
-                                  create_fft_companion
-  use beadmob_pfft_operator, only: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_operator_catalog, only: new_operator
+  use beadmob_fft_operator, only: fft_size
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
@@ -180,9 +179,8 @@ contains
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
     type(multipole_basis_t) :: basis
-    type(bead_operator_t), target :: direct_op
-    type(fft_operator_t), target :: fft_op
-    type(pfft_operator_t), target :: pfft_op
+    class(multipole_operator_t), allocatable, target :: op
+    type(operator_options_t) :: options
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
     type(motion_symmetry_t), allocatable :: symmetry
     Vec :: layout
@@ -231,54 +229,29 @@ contains
     call progress_line(report, 'phase blocks: ' // str(size(centres, 2)) // ' beads in the solve, ' // &
                        str(basis%size) // ' unknowns each, ' // trim(result%operator_name) // ' operator')
     result%cache_file = settings%cache_file
-    if (result%operator_name == 'fft') then
-      fft_op%table%cache_file = trim(settings%cache_file)   ! read by make_block_table
-      fft_op%measure_plans = settings%fft_planner == 'measure'
-      call create_fft_operator(ctx%comm, basis, centres, first, count, fft_op, matrix, err, report, &
-                               keep_lattice=with_companion)
-      call agree_on_error(ctx, err)
-      if (err%failed) then
-        call destroy_fft_operator(fft_op, matrix)
-        PetscCallA(PetscLogStagePop(ierr))
-        return
-      end if
-      result%on_lattice = fft_op%table%on_lattice
-      result%computed_blocks = fft_op%table%computed_blocks
-      result%cached_blocks = fft_op%table%cached_blocks
-      self = fft_op%self_block
-    else if (result%operator_name == 'pfft') then
-      pfft_op%stencil = settings%pfft_stencil
-      pfft_op%near_radius = settings%pfft_near_radius
-      pfft_op%grid%measure_plans = settings%fft_planner == 'measure'
-      if (with_companion) then
-        call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report, &
-                                  companion_unknowns=companion_unknowns(basis))
-      else
-        call create_pfft_operator(ctx%comm, basis, centres, first, count, pfft_op, matrix, err, report)
-      end if
-      call agree_on_error(ctx, err)
-      if (err%failed) then
-        call destroy_pfft_operator(pfft_op, matrix)
-        PetscCallA(PetscLogStagePop(ierr))
-        return
-      end if
-      result%computed_blocks = pfft_op%grid%table%computed_blocks
-      result%pfft_stencil = pfft_op%stencil
-      result%pfft_near_radius = pfft_op%near_radius
-      self = pfft_op%self_block
-    else
-      direct_op%table%cache_file = trim(settings%cache_file)
-      call create_bead_operator(ctx%comm, basis, centres, first, count, direct_op, matrix, err)
-      call agree_on_error(ctx, err)
-      if (err%failed) then
-        PetscCallA(PetscLogStagePop(ierr))
-        return
-      end if
-      result%on_lattice = direct_op%table%on_lattice
-      result%computed_blocks = direct_op%table%computed_blocks
-      result%cached_blocks = direct_op%table%cached_blocks
-      self = direct_op%self_block
+    options%cache_file = trim(settings%cache_file)
+    options%measure_plans = settings%fft_planner == 'measure'
+    options%report = report
+    options%pfft_stencil = settings%pfft_stencil
+    options%pfft_near_radius = settings%pfft_near_radius
+    if (with_companion) options%companion_unknowns = companion_unknowns(basis)
+    call new_operator(result%operator_name, op)
+    call op%create(ctx%comm, basis, centres, first, count, options, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) then
+      call op%destroy()
+      PetscCallA(PetscLogStagePop(ierr))
+      return
     end if
+    matrix = op%matrix
+    result%on_lattice = op%on_lattice
+    result%computed_blocks = op%computed_blocks
+    result%cached_blocks = op%cached_blocks
+    if (result%operator_name == 'pfft') then
+      result%pfft_stencil = settings%pfft_stencil
+      result%pfft_near_radius = settings%pfft_near_radius
+    end if
+    self = op%self_block
     call mark(1)
 
     result%near_field_radius = settings%near_field_radius
@@ -375,9 +348,7 @@ contains
     !> single-bead preconditioner, the same motions, symmetries and tolerance; not checkpointed.
     subroutine companion_friction(err)
       type(error_t), intent(inout) :: err
-      type(bead_operator_t), target :: direct_low
-      type(fft_operator_t), target :: fft_low
-      type(pfft_operator_t), target :: pfft_low
+      class(multipole_operator_t), allocatable, target :: low_op
       type(bead_block_preconditioner_t), target :: low_blocks
       type(motion_symmetry_t), allocatable :: low_symmetry
       type(solve_control_t) :: low_control
@@ -386,23 +357,13 @@ contains
       result%companion_unknowns_per_bead = low%size
       call progress_line(report, 'phase companion: order L = ' // str(result%companion_order) // ', ' // &
                          str(low%size) // ' unknowns per bead, for the error estimate')
-      if (result%operator_name == 'fft') then
-        call create_fft_companion(ctx%comm, fft_op, unknowns, fft_low, low_matrix, err)
-        call agree_on_error(ctx, err)
-        if (err%failed) then
-          call destroy_fft_operator(fft_low, low_matrix)
-          return
-        end if
-      else if (result%operator_name == 'pfft') then
-        call create_pfft_companion(ctx%comm, pfft_op, unknowns, pfft_low, low_matrix, err)
-        call agree_on_error(ctx, err)
-        if (err%failed) then
-          call destroy_pfft_operator(pfft_low, low_matrix)
-          return
-        end if
-      else
-        call create_bead_companion(ctx%comm, direct_op, unknowns, direct_low, low_matrix)
+      call op%create_companion(ctx%comm, unknowns, low_op, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) then
+        call low_op%destroy()
+        return
       end if
+      low_matrix = low_op%matrix
       call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
       if (.not. err%failed .and. settings%use_symmetry) then
         allocate (low_symmetry)
@@ -421,7 +382,7 @@ contains
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
-      call destroy_operator(fft_low, direct_low, pfft_low, low_matrix)
+      call low_op%destroy()
     end subroutine companion_friction
 
     !> friction += the lubrication correction of order (order, potential_order): every rank gets
@@ -447,23 +408,8 @@ contains
       if (.not. allocated(bead_blocks)) then
         PetscCallA(MatDestroy(near_field, ierr))
       end if
-      call destroy_operator(fft_op, direct_op, pfft_op, matrix)
+      call op%destroy()
     end subroutine release_operator
-
-    !> The operator of the kind this job uses (the order-L one or its companion) and its matrix.
-    subroutine destroy_operator(fft, direct, pfft, shell)
-      type(fft_operator_t), intent(inout) :: fft
-      type(bead_operator_t), intent(inout) :: direct
-      type(pfft_operator_t), intent(inout) :: pfft
-      Mat, intent(inout) :: shell
-      if (result%operator_name == 'fft') then
-        call destroy_fft_operator(fft, shell)
-      else if (result%operator_name == 'pfft') then
-        call destroy_pfft_operator(pfft, shell)
-      else
-        call destroy_bead_operator(direct, shell)
-      end if
-    end subroutine destroy_operator
 
     !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
     subroutine mark(phase)

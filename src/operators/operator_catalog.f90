@@ -1,0 +1,27 @@
+!> The bead operators by name: the one place that knows every implementation of
+!> multipole_operator_t (friction_job.F90's choose_operator picks the name).
+module beadmob_operator_catalog
+  use beadmob_multipole_operator, only: multipole_operator_t
+  use beadmob_bead_operator, only: bead_operator_t
+  use beadmob_fft_operator, only: fft_operator_t
+  use beadmob_pfft_operator, only: pfft_operator_t
+  implicit none
+  private
+  public :: new_operator
+
+contains
+
+  !> An operator of the kind `name` ('direct', 'fft' or 'pfft'; a checked name), not yet created.
+  subroutine new_operator(name, op)
+    character(len=*), intent(in) :: name
+    class(multipole_operator_t), allocatable, intent(out) :: op
+    select case (name)
+    case ('fft')
+      allocate (fft_operator_t :: op)
+    case ('pfft')
+      allocate (pfft_operator_t :: op)
+    case default
+      allocate (bead_operator_t :: op)
+    end select
+  end subroutine new_operator
+end module beadmob_operator_catalog
