@@ -12,6 +12,8 @@ module beadmob_bead_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, direct_seconds
+  use beadmob_axial_table, only: axial_nodes
   implicit none
   private
   public :: bead_operator_t, create_bead_operator, destroy_bead_operator, create_bead_companion
@@ -26,6 +28,7 @@ module beadmob_bead_operator
     procedure :: create => create_direct
     procedure :: create_companion => direct_companion
     procedure :: destroy => destroy_direct
+    procedure, nopass :: cost => direct_cost
   end type bead_operator_t
 
   interface
@@ -85,6 +88,30 @@ contains
       companion%made = .true.
     end select
   end subroutine direct_companion
+
+  !> multipole_operator_t%cost. Lattice: the canonical blocks by quadrature and the expanded
+  !> box table on every rank; off the lattice: a block per pair of this rank's rows, from the
+  !> axial table (2 L + 6 quadratures) turned to each pair (about a hundredth of a quadrature).
+  !> The companion copies its sub-blocks; a product reads every block once.
+  pure subroutine direct_cost(size, cost)
+    type(job_size_t), intent(in) :: size
+    type(operator_cost_t), intent(out) :: cost
+    real(dp) :: block_bytes
+    block_bytes = 8 * size%nb**2
+    if (size%on_lattice) then
+      cost%canonical_blocks = canonical_blocks_of(size%spans)
+      cost%blocks = block_bytes * cost%canonical_blocks
+      cost%kernel = block_bytes * product(real(2 * size%spans + 1, dp))
+      cost%seconds_setup = quadrature_seconds(size) * cost%canonical_blocks / size%n_ranks
+    else
+      cost%kernel = block_bytes * real(size%solve_beads, dp) * size%local_beads
+      cost%seconds_setup = quadrature_seconds(size) * (axial_nodes(size%order) + &
+                                                       real(size%solve_beads, dp) * size%local_beads / 100)
+    end if
+    cost%companion = cost%kernel * (size%nb_low / size%nb)**2
+    cost%seconds_product = direct_seconds * size%nb**2 * real(size%solve_beads, dp) * size%local_beads
+    cost%seconds_low_product = cost%seconds_product * (size%nb_low / size%nb)**2
+  end subroutine direct_cost
 
   subroutine destroy_direct(this)
     class(bead_operator_t), intent(inout) :: this

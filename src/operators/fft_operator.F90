@@ -43,9 +43,12 @@ module beadmob_fft_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, fill_seconds, &
+                                   fft_seconds, multiply_seconds, transpose_fraction
   implicit none
   private
-  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion
+  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion, fft_cost, &
+            fft_box_of_spans
 
   ! The part of FFTW's Fortran 2003 MPI interface used here, with the names, C symbols and
   ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
@@ -150,6 +153,7 @@ module beadmob_fft_operator
     procedure :: create => create_fft
     procedure :: create_companion => fft_companion
     procedure :: destroy => destroy_fft
+    procedure, nopass :: cost => fft_cost
   end type fft_operator_t
 
   !> fftw_mpi_init once per process (a second call would be harmless but is not promised).
@@ -212,6 +216,49 @@ contains
       if (companion%created) companion%matrix = matrix
     end select
   end subroutine fft_companion
+
+  !> multipole_operator_t%cost (docs/scaling.md lists the terms): the canonical blocks (freed
+  !> once the kernel is transformed), the packed kernel of this rank's frequencies, the FFT buffer
+  !> of its slab and FFTW-MPI's transposes; the companion's buffer. Time: quadrature per canonical
+  !> block, kernel fill per site and entry, the kernel's transforms; per product two transforms
+  !> of nb fields and the kernel product.
+  pure subroutine fft_cost(size, cost)
+    type(job_size_t), intent(in) :: size
+    type(operator_cost_t), intent(out) :: cost
+    real(dp) :: nb, packed, sites, real_planes, freq_planes, frequencies, log_sites
+    nb = size%nb
+    packed = nb * (nb + 1) / 2
+    cost%canonical_blocks = canonical_blocks_of(size%spans)
+    cost%transient = 8 * nb**2 * cost%canonical_blocks
+    cost%fft_box = fft_box_of_spans(size%spans)
+    sites = product(real(cost%fft_box, dp))
+    log_sites = log(sites) / log(2.0_dp)
+    ! FFTW slabs: real space split along the slow axis, the transposed spectrum along the middle one.
+    real_planes = real(ceiling(real(cost%fft_box(3), dp) / size%n_ranks), dp)
+    freq_planes = real(ceiling(real(cost%fft_box(2), dp) / size%n_ranks), dp)
+    frequencies = freq_planes * cost%fft_box(3) * (cost%fft_box(1) / 2 + 1)
+    cost%kernel = 8 * packed * frequencies
+    cost%fft_buffer = 16 * nb * max(frequencies, real_planes * cost%fft_box(2) * (cost%fft_box(1) / 2 + 1))
+    if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
+    cost%companion = cost%fft_buffer * size%nb_low / nb * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
+    cost%seconds_setup = (quadrature_seconds(size) * cost%canonical_blocks &
+                          + fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
+                          + ceiling(packed / nb) * fft_seconds * nb * sites * log_sites) / size%n_ranks
+    cost%seconds_product = (2 * fft_seconds * nb * sites * log_sites + multiply_seconds * packed * sites / 2) / size%n_ranks
+    cost%seconds_low_product = (2 * fft_seconds * size%nb_low * sites * log_sites &
+                                + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
+  end subroutine fft_cost
+
+  !> The padded FFT box (fast, middle, slow axis: increasing sizes) of a bead set whose lattice
+  !> spans are `spans` (as plan_transforms chooses it).
+  pure function fft_box_of_spans(spans) result(box)
+    integer, intent(in) :: spans(3)
+    integer :: box(3), padded(3), a
+    do a = 1, 3
+      padded(a) = fft_size(max(2 * spans(a) + 1, 2))
+    end do
+    box = [minval(padded), sum(padded) - minval(padded) - maxval(padded), maxval(padded)]
+  end function fft_box_of_spans
 
   subroutine destroy_fft(this)
     class(fft_operator_t), intent(inout) :: this

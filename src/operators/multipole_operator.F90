@@ -3,13 +3,15 @@
 !> (fft_operator.F90), precorrected FFT (pfft_operator.F90) and dense (dense_operator.F90) all
 !> extend multipole_operator_t. The friction job creates one by name (new_operator), applies it
 !> through its PETSc matrix (CG calls MatMult), makes its companion of a sub-basis for the error
-!> bar (theory.md T14) and destroys it, without knowing which one it has.
+!> bar (theory.md T14) and destroys it, and the dry run asks it its cost, without knowing which
+!> one it has.
 module beadmob_multipole_operator
 #include "petsc/finclude/petscmat.h"
   use petscmat
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t
   use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t
   implicit none
   private
   public :: multipole_operator_t, operator_options_t
@@ -47,6 +49,9 @@ module beadmob_multipole_operator
     procedure(destroy_interface), deferred :: destroy
     !> y = A x (collective).
     procedure :: apply
+    !> Memory per rank and time of this kind of operator for a job of the given sizes, before
+    !> anything is built (the dry run and the memory check, job_estimate.f90).
+    procedure(cost_interface), deferred, nopass :: cost
   end type multipole_operator_t
 
   abstract interface
@@ -72,6 +77,11 @@ module beadmob_multipole_operator
       import :: multipole_operator_t
       class(multipole_operator_t), intent(inout) :: this
     end subroutine destroy_interface
+    pure subroutine cost_interface(size, cost)
+      import :: job_size_t, operator_cost_t
+      type(job_size_t), intent(in) :: size
+      type(operator_cost_t), intent(out) :: cost
+    end subroutine cost_interface
   end interface
 
 contains

@@ -26,6 +26,8 @@ module beadmob_pfft_operator
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
+  use beadmob_fft_operator, only: fft_cost
   implicit none
   private
   public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
@@ -48,6 +50,7 @@ module beadmob_pfft_operator
     procedure :: create => create_pfft
     procedure :: create_companion => pfft_companion
     procedure :: destroy => destroy_pfft
+    procedure, nopass :: cost => pfft_cost
   end type pfft_operator_t
 
   interface
@@ -110,6 +113,23 @@ contains
       if (companion%created) companion%matrix = matrix
     end select
   end subroutine pfft_companion
+
+  !> multipole_operator_t%cost: the FFT operator's on the grid (size%spans: the grid's) and the
+  !> near-pair corrections (the companion's too), at most one bead per d^3 within the near radius
+  !> (the lattice's density, above a jittered cluster's 0.75); per pair its share of a BLAS
+  !> product over (2 s - 1)^3 = 343 kernel blocks and its turned block; per product one block read.
+  pure subroutine pfft_cost(size, cost)
+    type(job_size_t), intent(in) :: size
+    type(operator_cost_t), intent(out) :: cost
+    real(dp) :: near_pairs
+    call fft_cost(size, cost)
+    near_pairs = size%local_beads * min(real(size%solve_beads, dp), 4.0_dp / 3.0_dp * acos(-1.0_dp) * size%near_radius**3)
+    cost%blocks = near_pairs * 8 * (size%nb**2 + size%nb_low**2)
+    cost%seconds_setup = cost%seconds_setup + near_pairs * (0.1_dp * direct_seconds * size%nb**2 * 343 + &
+                                                            quadrature_seconds(size) / 100)
+    cost%seconds_product = cost%seconds_product + direct_seconds * size%nb**2 * near_pairs
+    cost%seconds_low_product = cost%seconds_low_product + direct_seconds * size%nb_low**2 * near_pairs
+  end subroutine pfft_cost
 
   subroutine destroy_pfft(this)
     class(pfft_operator_t), intent(inout) :: this

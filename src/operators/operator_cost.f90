@@ -1,0 +1,67 @@
+!> What an operator will cost before it is built (the operator part of the dry run,
+!> job_estimate.f90): the sizes of a job, the measured rates of this project's 2-core machine
+!> (bench/scaling.md, "Estimate against measurement"; another machine scales them by its speed),
+!> and the memory and time terms each operator reports through multipole_operator_t%cost.
+module beadmob_operator_cost
+  use beadmob_kinds, only: dp, i8
+  use beadmob_block_table, only: canonical_count
+  implicit none
+  private
+  public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds
+  public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction
+
+  ! Rates (seconds) measured on the development machine (one core per rank).
+  real(dp), parameter :: quadrature_seconds_l2 = 6.5e-4_dp  ! one canonical block at L = 2
+  real(dp), parameter :: fill_seconds = 6.0e-9_dp      ! one packed kernel entry of one site
+  real(dp), parameter :: fft_seconds = 0.75e-9_dp      ! per field, per site and log2(sites), one transform
+  real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
+  real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product
+  !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
+  !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling.md).
+  real(dp), parameter :: transpose_fraction = 0.5_dp
+
+  !> The sizes an operator's cost depends on.
+  type :: job_size_t
+    integer(i8) :: solve_beads = 0          ! beads in the solve
+    real(dp) :: local_beads = 0             ! on the largest rank
+    integer :: n_ranks = 1
+    integer :: order = 2                    ! L
+    real(dp) :: nb = 0, nb_low = 0          ! unknowns per bead; the companion's (0: none)
+    integer :: spans(3) = 0                 ! lattice spans (lattice models) or the pfft grid's
+    logical :: on_lattice = .false.
+    real(dp) :: near_radius = 0             ! the pfft operator's radius of exact pairs (d)
+  end type job_size_t
+
+  !> Per rank, largest rank: bytes held while the solves run (blocks: pair blocks or canonical
+  !> blocks; kernel: the FFT kernel or the block table), bytes held only during the set-up
+  !> (transient), and the companion's operator; seconds of the set-up and of one product.
+  type :: operator_cost_t
+    real(dp) :: blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, transient = 0, companion = 0
+    real(dp) :: seconds_setup = 0, seconds_product = 0, seconds_low_product = 0
+    integer(i8) :: canonical_blocks = 0     ! blocks by quadrature (lattice models)
+    integer :: fft_box(3) = 0               ! padded box, slow axis last (0: no FFT)
+  end type operator_cost_t
+
+contains
+
+  !> One block by quadrature at order L (pair_blocks.f90): the rule's points grow like
+  !> (L + 10)(2L + 10), the block like nb^2.
+  pure real(dp) function quadrature_seconds(size)
+    type(job_size_t), intent(in) :: size
+    quadrature_seconds = quadrature_seconds_l2 * (size%nb / 16)**2 * ((size%order + 10.0_dp) * &
+                         (2 * size%order + 10.0_dp)) / (12.0_dp * 14.0_dp)
+  end function quadrature_seconds
+
+  !> canonical_count of block_table, in 64-bit arithmetic: a box too large to build still gets
+  !> its estimate (extent: the spans sorted descending).
+  pure integer(i8) function canonical_blocks_of(spans)
+    integer, intent(in) :: spans(3)
+    real(dp) :: extent(3)
+    extent = real([maxval(spans), sum(spans) - maxval(spans) - minval(spans), minval(spans)], dp)
+    if (maxval(extent) < 2000.0_dp) then
+      canonical_blocks_of = canonical_count(nint(extent))
+    else   ! about (e1 e2 e3) / 6 for large boxes
+      canonical_blocks_of = int(min((extent(1) + 1) * (extent(2) + 1) * (extent(3) + 1) / 6, 9.0e18_dp), i8)
+    end if
+  end function canonical_blocks_of
+end module beadmob_operator_cost
