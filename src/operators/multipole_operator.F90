@@ -36,6 +36,9 @@ module beadmob_multipole_operator
     integer(i8) :: computed_blocks = 0            ! pair blocks (or table nodes) by quadrature
     integer(i8) :: cached_blocks = 0              ! pair blocks read from the table cache
     Mat :: matrix                                 ! y = A x by MatMult; valid after create
+    !> The matrix is assembled and exact (the dense operator): its Cholesky factorisation is the
+    !> solve's preconditioner, instead of the single-bead blocks.
+    logical :: assembled = .false.
   contains
     !> Collective. The operator of `basis` on `centres` (this rank's rows first_bead ..
     !> first_bead + n_local - 1). On error (err set on any rank, agreed) destroy is still safe.

@@ -5,13 +5,14 @@ module beadmob_operator_catalog
   use beadmob_bead_operator, only: bead_operator_t
   use beadmob_fft_operator, only: fft_operator_t
   use beadmob_pfft_operator, only: pfft_operator_t
+  use beadmob_dense_operator, only: dense_operator_t
   implicit none
   private
   public :: new_operator
 
 contains
 
-  !> An operator of the kind `name` ('direct', 'fft' or 'pfft'; a checked name), not yet created.
+  !> An operator of the kind `name` ('direct', 'fft', 'pfft' or 'dense'; a checked name), not yet created.
   subroutine new_operator(name, op)
     character(len=*), intent(in) :: name
     class(multipole_operator_t), allocatable, intent(out) :: op
@@ -20,6 +21,8 @@ contains
       allocate (fft_operator_t :: op)
     case ('pfft')
       allocate (pfft_operator_t :: op)
+    case ('dense')
+      allocate (dense_operator_t :: op)
     case default
       allocate (bead_operator_t :: op)
     end select

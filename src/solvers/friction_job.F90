@@ -15,6 +15,7 @@ module beadmob_friction_job
   use beadmob_operator_catalog, only: new_operator
   use beadmob_fft_operator, only: fft_size
   use beadmob_block_table, only: on_unit_lattice
+  use beadmob_dense_operator, only: dense_max_unknowns
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
@@ -34,6 +35,8 @@ module beadmob_friction_job
 
   !> Off-lattice models from this many beads get the pfft operator under 'auto' (choose_operator).
   integer, parameter :: pfft_min_beads = 1000
+  !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
+  integer, parameter :: dense_max_beads = 8
   character(len=*), parameter :: phase_names(6) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
                                                    'companion', 'lubrication', 'total']
 
@@ -256,7 +259,12 @@ contains
 
     result%near_field_radius = settings%near_field_radius
     result%near_field_cluster = settings%near_field_cluster
-    if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
+    if (op%assembled) then
+      ! The dense operator: its own Cholesky factorisation is the exact solve (rigid_body_friction
+      ! factorises the preconditioning matrix with MUMPS).
+      near_field = matrix
+      result%near_field_pairs = 0
+    else if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
       ! No pair blocks: the single-bead blocks need no assembled matrix.
       allocate (bead_blocks)
       call make_bead_block_preconditioner(self, bead_blocks, err)
@@ -273,7 +281,8 @@ contains
     end if
     call mark(2)
 
-    if (settings%use_symmetry) then
+    ! (An exact solve costs a triangular solve per motion: no symmetries are looked for.)
+    if (settings%use_symmetry .and. .not. op%assembled) then
       allocate (symmetry)
       PetscCallA(MatCreateVecs(matrix, layout, PETSC_NULL_VEC, ierr))
       call find_motion_symmetry(ctx%comm, basis, centres, reference_point, first, count, layout, symmetry, err)
@@ -364,8 +373,8 @@ contains
         return
       end if
       low_matrix = low_op%matrix
-      call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
-      if (.not. err%failed .and. settings%use_symmetry) then
+      if (.not. low_op%assembled) call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
+      if (.not. err%failed .and. settings%use_symmetry .and. .not. low_op%assembled) then
         allocate (low_symmetry)
         PetscCallA(MatCreateVecs(low_matrix, layout, PETSC_NULL_VEC, ierr))
         call find_motion_symmetry(ctx%comm, low, centres, reference_point, first, count, layout, low_symmetry, err)
@@ -375,10 +384,17 @@ contains
       if (.not. err%failed) then
         low_control%progress = report
         low_control%label = 'companion solve'
-        call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
-                                 reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
-                                 result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
-                                 requested=settings%motions, control=low_control, initial_guess=low_start)
+        if (low_op%assembled) then   ! its Cholesky factorisation (MUMPS), as for the order-L solve
+          call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
+                                   reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
+                                   result%companion_solves, symmetry=low_symmetry, requested=settings%motions, &
+                                   control=low_control, initial_guess=low_start)
+        else
+          call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
+                                   reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
+                                   result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
+                                   requested=settings%motions, control=low_control, initial_guess=low_start)
+        end if
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
@@ -403,9 +419,9 @@ contains
       friction = friction + lubrication_sum
     end subroutine lubricated
 
-    !> The operator and, when assembled, the near-field matrix.
+    !> The operator and, when assembled, the near-field matrix (the dense operator's is its own).
     subroutine release_operator()
-      if (.not. allocated(bead_blocks)) then
+      if (.not. allocated(bead_blocks) .and. .not. op%assembled) then
         PetscCallA(MatDestroy(near_field, ierr))
       end if
       call op%destroy()
@@ -541,6 +557,10 @@ contains
   !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the
   !> precorrected FFT from pfft_min_beads on (the direct operator stores N^2 / P blocks: 4.6 GB
   !> per rank for 2000 beads on 2 ranks; bench/offlattice.md); below that the exact direct one.
+  !> First of all, up to dense_max_beads beads (and dense_max_unknowns unknowns), the dense
+  !> operator: a few beads at high L are where Krylov iterations pile up and an exact solve of a
+  !> few thousand unknowns is cheap (bench/high_order.md: 3-5 beads at L = 8 ... 16 run 1.7-5.7x
+  !> faster; bodies with many symmetric beads keep the Krylov path, which wins there).
   subroutine choose_operator(requested, centres, block_size, chosen, err)
     character(len=*), intent(in) :: requested
     real(dp), intent(in) :: centres(:, :)
@@ -550,11 +570,13 @@ contains
     real(dp) :: direct_work, fft_work, sites
     integer :: axis
     select case (trim(requested))
-    case ('direct', 'fft', 'pfft')
+    case ('direct', 'fft', 'pfft', 'dense')
       chosen = requested
     case ('auto')
       chosen = 'direct'
-      if (on_unit_lattice(centres)) then
+      if (size(centres, 2) <= dense_max_beads .and. size(centres, 2) * block_size <= dense_max_unknowns) then
+        chosen = 'dense'
+      else if (on_unit_lattice(centres)) then
         sites = 1.0_dp
         do axis = 1, 3
           sites = sites * fft_size(2 * nint(maxval(centres(axis, :)) - minval(centres(axis, :))) + 1)
@@ -567,7 +589,7 @@ contains
       end if
     case default
       chosen = ''
-      call raise(err, "-operator must be 'direct', 'fft', 'pfft' or 'auto', got '" // trim(requested) // "'")
+      call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // trim(requested) // "'")
     end select
   end subroutine choose_operator
 end module beadmob_friction_job
