@@ -19,6 +19,7 @@ module beadmob_job_planning
   use beadmob_friction_job, only: friction_settings_t, choose_operator
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
   use beadmob_motion_symmetry, only: solves_needed
+  use beadmob_progress, only: progress_line
   implicit none
   private
   public :: plan_friction_job, dry_run_requested
@@ -106,9 +107,12 @@ contains
       if (ctx%rank == 0) call print_estimate(estimate, limit, limit_given, ranks_given)
       return
     end if
+    call progress_line(settings%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
+                       ' GiB per rank, ' // seconds_text(estimate%seconds_total) // ' (beadmob --estimate: the parts)')
     if (estimate%peak > limit) &
       call raise(err, 'the job needs about ' // gib_text(estimate%peak) // ' GiB per rank on ' // str(ranks) // &
-                 ' ranks (' // trim(breakdown(estimate)) // '), more than the ' // gib_text(limit) // &
+                 ' ranks (' // trim(breakdown(estimate)) // ') and would take about ' // &
+                 seconds_text(estimate%seconds_total) // ', more than the ' // gib_text(limit) // &
                  ' GiB a rank can have' // either(limit_given, ' (-memory_limit)', ' (available on this node)') // &
                  '; refused before allocating. Use more ranks or nodes, a smaller model or a lower ' // &
                  'multipole_order (beadmob --estimate shows the estimate)')
@@ -174,10 +178,24 @@ contains
     type(job_estimate_t), intent(in) :: e
     character(len=256) :: text
     text = 'base ' // gib_text(e%base) // ', geometry ' // gib_text(e%geometry) // ', blocks ' // gib_text(e%blocks) // &
-           ', ' // either(e%operator_name /= 'direct', 'FFT kernel', 'block table') // ' ' // gib_text(e%kernel) // &
+           ', ' // kernel_name(e%operator_name) // ' ' // gib_text(e%kernel) // &
            ', FFT buffer ' // gib_text(e%fft_buffer) // ', transposes ' // gib_text(e%transposes) // &
            ', vectors ' // gib_text(e%vectors) // either(e%companion > 0, ', companion ' // gib_text(e%companion), '')
   end function breakdown
+
+  !> What the estimate's kernel term holds for each operator.
+  pure function kernel_name(operator_name) result(text)
+    character(len=*), intent(in) :: operator_name
+    character(len=:), allocatable :: text
+    select case (operator_name)
+    case ('fft', 'pfft')
+      text = 'FFT kernel'
+    case ('dense')
+      text = 'MUMPS entries and factor'
+    case default
+      text = 'block table'
+    end select
+  end function kernel_name
 
   pure function either(condition, if_true, if_false) result(text)
     logical, intent(in) :: condition

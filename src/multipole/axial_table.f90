@@ -9,6 +9,7 @@
 !> direction u then follows by the rotation of the basis, A(r u) = D_Q A_z(r) D_Q^T with
 !> Q e_z = u (harmonic_rotation.f90; the same covariance as the lattice symmetries, T4).
 module beadmob_axial_table
+  use mpi
   use beadmob_kinds, only: dp
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: pair_block
@@ -24,6 +25,9 @@ module beadmob_axial_table
     real(dp), allocatable :: nodes(:)                ! x_k = 1 / r_k in (0, 1)
     real(dp), allocatable :: barycentric_weights(:)
     real(dp), allocatable :: blocks(:, :, :)         ! (nb, nb, n_nodes): A_z(1 / x_k)
+    !> The nodes are the distinct distances of a bead set (fewer than the Chebyshev nodes): blocks
+    !> are looked up, not interpolated, and only those distances are served.
+    logical :: at_distances = .false.
     !> First and last basis index of each (n, sigma) group (contiguous in the basis order), its degree
     integer, allocatable :: group_first(:), group_last(:), group_degree(:)
     type(rotation_rule_t) :: rotation
@@ -38,20 +42,48 @@ contains
   end function axial_nodes
 
   !> The table of `basis` (all |k| <= n of every degree: the rotation needs whole degrees).
-  subroutine make_axial_table(basis, table)
+  !> comm (optional): the node quadratures are shared over its ranks (collective). distances
+  !> (optional): when there are fewer distinct ones than Chebyshev nodes, the table holds those
+  !> distances only (at_distances; a few beads at high L, where a quadrature is expensive).
+  subroutine make_axial_table(basis, table, comm, distances)
     type(multipole_basis_t), intent(in) :: basis
     type(axial_table_t), intent(out) :: table
-    integer :: k, n_nodes, a, groups
+    integer, intent(in), optional :: comm
+    real(dp), intent(in), optional :: distances(:)
+    integer :: k, n_nodes, a, groups, rank, n_ranks, ierr, owner
+    real(dp), allocatable :: distinct(:)
     n_nodes = axial_nodes(basis%order)
     table%block_size = basis%size
     table%order = basis%order
+    if (present(distances)) then
+      distinct = distinct_values(distances)
+      table%at_distances = size(distinct) < n_nodes
+      if (table%at_distances) n_nodes = size(distinct)
+    end if
     allocate (table%nodes(n_nodes), table%barycentric_weights(n_nodes), table%blocks(basis%size, basis%size, n_nodes))
+    rank = 0
+    n_ranks = 1
+    if (present(comm)) then
+      call MPI_Comm_rank(comm, rank, ierr)
+      call MPI_Comm_size(comm, n_ranks, ierr)
+    end if
     do k = 1, n_nodes
-      ! Chebyshev points of the first kind on (0, 1) and their barycentric weights (Berrut & Trefethen 2004)
-      table%nodes(k) = 0.5_dp + 0.5_dp * cos(pi * (k - 0.5_dp) / n_nodes)
-      table%barycentric_weights(k) = (-1)**(k - 1) * sin(pi * (k - 0.5_dp) / n_nodes)
-      call pair_block(basis, [0.0_dp, 0.0_dp, 1.0_dp / table%nodes(k)], table%blocks(:, :, k))
+      if (table%at_distances) then
+        table%nodes(k) = 1.0_dp / distinct(k)
+        table%barycentric_weights(k) = 0.0_dp
+      else
+        ! Chebyshev points of the first kind on (0, 1) and their barycentric weights (Berrut & Trefethen 2004)
+        table%nodes(k) = 0.5_dp + 0.5_dp * cos(pi * (k - 0.5_dp) / n_nodes)
+        table%barycentric_weights(k) = (-1)**(k - 1) * sin(pi * (k - 0.5_dp) / n_nodes)
+      end if
+      if (mod(k - 1, n_ranks) == rank) call pair_block(basis, [0.0_dp, 0.0_dp, 1.0_dp / table%nodes(k)], table%blocks(:, :, k))
     end do
+    if (present(comm) .and. n_ranks > 1) then
+      do k = 1, n_nodes   ! node k from its rank (round robin)
+        owner = mod(k - 1, n_ranks)
+        call MPI_Bcast(table%blocks(:, :, k), basis%size**2, MPI_DOUBLE_PRECISION, owner, comm, ierr)
+      end do
+    end if
     groups = 0
     allocate (table%group_first(basis%size), table%group_last(basis%size), table%group_degree(basis%size))
     do a = 1, basis%size
@@ -79,7 +111,9 @@ contains
     x = 1.0_dp / distance
     weights = x - table%nodes
     k = minloc(abs(weights), dim=1)
-    if (weights(k) == 0.0_dp) then
+    ! A node, or with a table at distances, one of them (the same distance computed from
+    ! another displacement: equal to rounding)
+    if (weights(k) == 0.0_dp .or. table%at_distances) then
       block = table%blocks(:, :, k)
       return
     end if
@@ -90,6 +124,36 @@ contains
       block = block + weights(k) * table%blocks(:, :, k)
     end do
   end subroutine axial_block
+
+  !> The sorted distinct values of `values` (equal to 1e-12 relative: one distance computed from
+  !> two displacements).
+  pure function distinct_values(values) result(distinct)
+    real(dp), intent(in) :: values(:)
+    real(dp), allocatable :: distinct(:)
+    real(dp) :: sorted(size(values)), swap
+    integer :: i, j, n
+    sorted = values
+    do i = 2, size(sorted)   ! insertion sort: few values
+      swap = sorted(i)
+      j = i - 1
+      do while (j >= 1)
+        if (sorted(j) <= swap) exit
+        sorted(j + 1) = sorted(j)
+        j = j - 1
+      end do
+      sorted(j + 1) = swap
+    end do
+    allocate (distinct(size(sorted)))
+    n = 0
+    do i = 1, size(sorted)
+      if (n > 0) then
+        if (sorted(i) - distinct(n) <= 1.0e-12_dp * sorted(i)) cycle
+      end if
+      n = n + 1
+      distinct(n) = sorted(i)
+    end do
+    distinct = distinct(1:n)
+  end function distinct_values
 
   !> block = A(displacement), displacement = R_i - R_j (|displacement| >= 1 d): the axial block
   !> turned by D_Q, Q e_z = displacement / |displacement|, one (n, sigma) group at a time.

@@ -12,7 +12,8 @@ module beadmob_bead_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
-  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, direct_seconds
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, direct_seconds, &
+                                   transform_bytes
   use beadmob_axial_table, only: axial_nodes
   implicit none
   private
@@ -100,7 +101,7 @@ contains
     block_bytes = 8 * size%nb**2
     if (size%on_lattice) then
       cost%canonical_blocks = canonical_blocks_of(size%spans)
-      cost%blocks = block_bytes * cost%canonical_blocks
+      cost%blocks = block_bytes * cost%canonical_blocks + transform_bytes(size)
       cost%kernel = block_bytes * product(real(2 * size%spans + 1, dp))
       cost%seconds_setup = quadrature_seconds(size) * cost%canonical_blocks / size%n_ranks
     else

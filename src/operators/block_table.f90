@@ -134,7 +134,7 @@ contains
       call fill_lattice_table(comm, basis, expanded, table, err)
     else
       deallocate (table%lattice)
-      call fill_pair_store(basis, centres, first, n_local, table, err)
+      call fill_pair_store(comm, basis, centres, first, n_local, table, err)
     end if
   end subroutine make_block_table
 
@@ -403,7 +403,8 @@ contains
     end do
   end subroutine lattice_block_entries
 
-  subroutine fill_pair_store(basis, centres, first, n_local, table, err)
+  subroutine fill_pair_store(comm, basis, centres, first, n_local, table, err)
+    integer, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :)
     integer(i8), intent(in) :: first, n_local
@@ -423,7 +424,7 @@ contains
     end if
     allocate (table%blocks(nb, nb, n * n_local))
     ! Every block from the axial table turned to the pair (theory.md T15), not a quadrature each.
-    call make_axial_table(basis, axial)
+    call make_axial_table(basis, axial, comm)
     do i = 1, int(n_local)
       do j = 1, n
         if (j == first + i - 1) then

@@ -5,8 +5,9 @@
 !> is then the exact solve: CG preconditioned by it converges in one iteration, so the six motions
 !> cost six triangular solves, and every check of the Krylov path (true residual, variational
 !> friction, symmetry) is made the same way. At high L on a few beads this replaces hundreds of
-!> CG iterations; the blocks come by a quadrature per pair (few pairs) or from the axial table
-!> (T15), never from the lattice table, whose 48 basis transforms dominate at high L.
+!> CG iterations; the blocks come from the axial table (T15: a quadrature per distinct distance,
+!> or per Chebyshev node, shared over the ranks), never from the lattice table, whose 48 basis
+!> transforms dominate at high L.
 module beadmob_dense_operator
 #include "petsc/finclude/petscmat.h"
   use petscmat
@@ -14,7 +15,7 @@ module beadmob_dense_operator
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_multipole_basis, only: multipole_basis_t
-  use beadmob_pair_blocks, only: pair_block, self_block
+  use beadmob_pair_blocks, only: self_block
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block, axial_nodes
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds
@@ -55,9 +56,9 @@ contains
     PetscInt :: nb, low_size, local_rows, global_rows, row(1)
     PetscInt, allocatable :: diagonal(:), off_diagonal(:)
     PetscErrorCode :: ierr
-    integer(i8) :: i, j, bead, last_bead, n, local_pairs
+    integer(i8) :: i, j, bead, last_bead, n
     integer :: k
-    logical :: by_table
+    real(dp), allocatable :: distances(:)
 
     nb = basis%size
     n = size(centres, 2, kind=i8)
@@ -73,11 +74,23 @@ contains
     allocate (this%self_block(nb, nb), block(nb, nb))
     call self_block(basis, this%self_block)
     last_bead = first_bead + n_local - 1
-    ! A quadrature per pair while that is cheaper than the axial table's 2 L + 6 quadratures.
-    local_pairs = sum([(n - bead + 1, bead = first_bead, last_bead)]) - n_local
-    by_table = local_pairs > axial_nodes(basis%order)
-    if (by_table) call make_axial_table(basis, axial)
-    this%computed_blocks = merge(int(axial_nodes(basis%order), i8), local_pairs, by_table)
+    ! Every block turned from an axial one (theory.md T15): at the model's distinct distances when
+    ! there are fewer of them than Chebyshev nodes (a chain of 3 beads: 2), else the Chebyshev
+    ! table; the quadratures are shared over the ranks.
+    if (n <= 400) then
+      allocate (distances(n * (n - 1) / 2))
+      k = 0
+      do i = 1, n
+        do j = i + 1, n
+          k = k + 1
+          distances(k) = norm2(centres(:, i) - centres(:, j))
+        end do
+      end do
+      call make_axial_table(basis, axial, comm, distances)
+    else
+      call make_axial_table(basis, axial, comm)
+    end if
+    this%computed_blocks = size(axial%nodes)
 
     ! Upper triangle of blocks: row bead i holds columns j >= i; j <= last_bead is this rank's.
     local_rows = int(n_local) * nb
@@ -101,10 +114,8 @@ contains
       do j = bead, n
         if (j == bead) then
           block = this%self_block
-        else if (by_table) then
-          call rotated_block(axial, centres(:, bead) - centres(:, j), block)
         else
-          call pair_block(basis, centres(:, bead) - centres(:, j), block)
+          call rotated_block(axial, centres(:, bead) - centres(:, j), block)
         end if
         k = int(j - bead)
         call place_block(block, k, int(n - bead + 1), values)
@@ -187,19 +198,21 @@ contains
   end subroutine destroy_dense
 
   !> multipole_operator_t%cost: the upper triangle of blocks (and the companion's), MUMPS's copy
-  !> of it and its factor (a dense front, n^2 / 2 entries), split over the ranks; time: the blocks
-  !> (a quadrature per pair, or the axial table and a turned block per pair), the factorisation
-  !> (n^3 / 3 flops at ~2 Gflop/s per rank) and two triangular solves per product.
+  !> of it and its factor (a dense front, n^2 / 2 entries), split over the ranks; time: the axial
+  !> blocks (at most one quadrature per pair, shared over the ranks) and the self block (a
+  !> quadrature), the factorisation (n^3 / 3 flops at ~2 Gflop/s per rank) and two triangular
+  !> solves per product.
   pure subroutine dense_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
     real(dp), parameter :: flop_seconds = 0.5e-9_dp
     real(dp) :: unknowns, pairs
     unknowns = size%nb * size%solve_beads
-    pairs = size%local_beads * real(size%solve_beads, dp) / 2
+    pairs = real(size%solve_beads, dp) * (size%solve_beads - 1) / 2
     cost%blocks = 8 * unknowns**2 / 2 * (1 + (size%nb_low / size%nb)**2) / size%n_ranks
     cost%kernel = 2 * 8 * unknowns**2 / 2 / size%n_ranks   ! MUMPS: the entries and the factor
-    cost%seconds_setup = quadrature_seconds(size) * min(pairs, pairs / 100 + axial_nodes(size%order)) + &
+    cost%seconds_setup = quadrature_seconds(size) * (ceiling(min(pairs, real(axial_nodes(size%order), dp)) / &
+                                                             size%n_ranks) + 1) + &
                          flop_seconds * unknowns**3 / 3 / size%n_ranks
     cost%seconds_product = flop_seconds * 2 * unknowns**2 / size%n_ranks
     cost%seconds_low_product = cost%seconds_product * (size%nb_low / size%nb)**2

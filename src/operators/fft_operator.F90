@@ -44,7 +44,7 @@ module beadmob_fft_operator
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, fill_seconds, &
-                                   fft_seconds, multiply_seconds, transpose_fraction
+                                   fft_seconds, multiply_seconds, transpose_fraction, transform_bytes
   implicit none
   private
   public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion, fft_cost, &
@@ -229,7 +229,7 @@ contains
     nb = size%nb
     packed = nb * (nb + 1) / 2
     cost%canonical_blocks = canonical_blocks_of(size%spans)
-    cost%transient = 8 * nb**2 * cost%canonical_blocks
+    cost%transient = 8 * nb**2 * cost%canonical_blocks + transform_bytes(size)
     cost%fft_box = fft_box_of_spans(size%spans)
     sites = product(real(cost%fft_box, dp))
     log_sites = log(sites) / log(2.0_dp)

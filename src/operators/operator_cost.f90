@@ -7,7 +7,7 @@ module beadmob_operator_cost
   use beadmob_block_table, only: canonical_count
   implicit none
   private
-  public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds
+  public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, transform_bytes
   public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction
 
   ! Rates (seconds) measured on the development machine (one core per rank).
@@ -44,13 +44,23 @@ module beadmob_operator_cost
 
 contains
 
-  !> One block by quadrature at order L (pair_blocks.f90): the rule's points grow like
-  !> (L + 10)(2L + 10), the block like nb^2.
+  !> One block by quadrature at order L (pair_blocks.f90), for a touching pair: the fields at the
+  !> rule's points (~ points nb, 6.5e-4 s at L = 2) and their product, 6 points nb^2 flops at
+  !> 25 Gflop/s (dgemm; measured 0.47 s at L = 16, 3.3 s at L = 24 against 0.63 and 4.5 here).
   pure real(dp) function quadrature_seconds(size)
     type(job_size_t), intent(in) :: size
-    quadrature_seconds = quadrature_seconds_l2 * (size%nb / 16)**2 * ((size%order + 10.0_dp) * &
-                         (2 * size%order + 10.0_dp)) / (12.0_dp * 14.0_dp)
+    real(dp) :: points
+    points = ((40 + 1.5_dp * (size%order + 3)) / (2 * log(2.0_dp)) + size%order + 8) * (2 * size%order + 8)
+    quadrature_seconds = quadrature_seconds_l2 * points / 532 * size%nb / 16 + 6 * points * size%nb**2 / 2.5e10_dp
   end function quadrature_seconds
+
+  !> Bytes of the 48 lattice symmetries' basis transforms (lattice_symmetry.f90), dense: held by
+  !> the lattice block table and again by the motion symmetries (motion_symmetry.F90). At high L
+  !> they are what a lattice job holds most of (0.25 GB at L = 16, 45 GB at L = 60).
+  pure real(dp) function transform_bytes(size)
+    type(job_size_t), intent(in) :: size
+    transform_bytes = 2 * 48 * 8 * size%nb**2
+  end function transform_bytes
 
   !> canonical_count of block_table, in 64-bit arithmetic: a box too large to build still gets
   !> its estimate (extent: the spans sorted descending).

@@ -334,7 +334,7 @@ contains
     integer(i8) :: i, last_bead
     nb = op%block_size
     s = op%stencil
-    call make_axial_table(basis, axial)
+    call make_axial_table(basis, axial, comm)
     ! K(d) for every displacement a near pair's stencils can meet
     reach = ceiling(op%near_radius) + s
     allocate (kernel(nb, nb, -reach:reach, -reach:reach, -reach:reach))
