@@ -24,7 +24,9 @@ module beadmob_pfft_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_lapack, only: dgemm
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
-  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion
+  use beadmob_harmonic_rotation, only: make_rotation_rule, degree_rotations
+  use beadmob_lapack, only: dsyev
+  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion, fft_size
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
@@ -45,6 +47,15 @@ module beadmob_pfft_operator
     Mat :: grid_matrix, interpolation, correction, companion_correction
     logical :: has_companion_correction = .false.
     Vec :: grid_x, grid_y
+    !> The grid is laid along the beads' principal axes when that makes the FFT box smaller (a
+    !> turned elongated body): positions in that frame are Q^T (R - centroid), and the operator is
+    !> D_Q A' D_Q^T with A' the frame's (theory.md T15), D_Q = O^n(Q) on each (n, sigma) group of
+    !> a bead's unknowns (turn(:, :, n); unknown_degree and group_first/last name the groups).
+    logical :: turned = .false.
+    real(dp) :: frame(3, 3) = 0.0_dp
+    real(dp), allocatable :: turn(:, :, :)
+    integer, allocatable :: group_first(:), group_last(:), group_degree(:)
+    Vec :: frame_x, frame_y
     logical :: created = .false.
   contains
     procedure :: create => create_pfft
@@ -207,7 +218,7 @@ contains
     logical, intent(in) :: report
     integer, intent(in), optional :: companion_unknowns(:)
     integer, allocatable :: first(:, :), node_id(:, :, :)
-    real(dp), allocatable :: weights(:, :, :), nodes(:, :)
+    real(dp), allocatable :: weights(:, :, :), nodes(:, :), grid_centres(:, :)
     integer(i8) :: grid_first, grid_count
     integer :: rank, n_ranks
     PetscErrorCode :: ierr
@@ -224,7 +235,9 @@ contains
     op%n_local = n_local
     allocate (op%self_block(basis%size, basis%size))
     call self_block(basis, op%self_block)
-    call pfft_grid_nodes(centres, op%stencil, first, weights, node_id, nodes)
+    call choose_frame(op, centres, grid_centres)
+    if (op%turned) call set_turn(op, basis%order, basis%degree, basis%family)
+    call pfft_grid_nodes(grid_centres, op%stencil, first, weights, node_id, nodes)
     op%n_grid = size(nodes, 2, kind=i8)
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
@@ -232,13 +245,15 @@ contains
     grid_first = 1 + rank * grid_count + min(int(rank, i8), mod(op%n_grid, int(n_ranks, i8)))
     if (rank < mod(op%n_grid, int(n_ranks, i8))) grid_count = grid_count + 1
     call progress_line(report, 'pfft grid: ' // str(op%n_grid) // ' nodes carry the stencils of ' // &
-                       str(op%stencil) // '^3 points; near radius ' // str(op%near_radius) // ' d')
+                       str(op%stencil) // '^3 points; near radius ' // str(op%near_radius) // ' d' // &
+                       trim(merge(', along the principal axes', '                          ', op%turned)))
     call create_fft_operator(comm, basis, nodes, grid_first, grid_count, op%grid, op%grid_matrix, err, report, &
                              keep_lattice=present(companion_unknowns))
     if (err%failed) return
     call assemble_interpolation(comm, op, first, weights, node_id)
-    call assemble_correction(comm, basis, op, centres, first, weights, companion_unknowns)
+    call assemble_correction(comm, basis, op, grid_centres, first, weights, companion_unknowns)
     PetscCallA(MatCreateVecs(op%grid_matrix, op%grid_x, op%grid_y, ierr))
+    if (op%turned) call make_frame_vectors(comm, op)
     call make_shell(comm, op, matrix)
     call progress_line(report, 'pfft operator: ' // str(op%near_pairs) // ' near pairs on rank 0 (' // &
                        progress_seconds(MPI_Wtime() - start) // ' s)')
@@ -531,6 +546,110 @@ contains
     end subroutine near_beads
   end subroutine assemble_correction
 
+  !> grid_centres: the centres in the frame of the grid, the principal axes of the bead set (about
+  !> its centroid) when their padded FFT box is smaller by 10 % or more, else the centres as given.
+  subroutine choose_frame(op, centres, grid_centres)
+    type(pfft_operator_t), intent(inout) :: op
+    real(dp), intent(in) :: centres(:, :)
+    real(dp), allocatable, intent(out) :: grid_centres(:, :)
+    real(dp) :: centroid(3), gyration(3, 3), eigenvalues(3), work(64)
+    real(dp), allocatable :: turned(:, :)
+    integer :: info
+    centroid = sum(centres, dim=2) / size(centres, 2)
+    turned = centres - spread(centroid, 2, size(centres, 2))
+    gyration = matmul(turned, transpose(turned))
+    call dsyev('V', 'U', 3, gyration, 3, eigenvalues, work, size(work), info)
+    op%turned = .false.
+    if (info == 0) then
+      ! a proper rotation: the third axis the cross product of the first two
+      gyration(:, 3) = [gyration(2, 1) * gyration(3, 2) - gyration(3, 1) * gyration(2, 2), &
+                        gyration(3, 1) * gyration(1, 2) - gyration(1, 1) * gyration(3, 2), &
+                        gyration(1, 1) * gyration(2, 2) - gyration(2, 1) * gyration(1, 2)]
+      turned = matmul(transpose(gyration), turned)
+      op%turned = box_sites(turned) <= 0.9_dp * box_sites(centres)
+    end if
+    if (op%turned) then
+      op%frame = gyration
+      call move_alloc(turned, grid_centres)
+    else
+      grid_centres = centres
+    end if
+
+  contains
+
+    !> Sites of the padded FFT box of the grid of these centres (fft_operator.F90's rule).
+    real(dp) function box_sites(points)
+      real(dp), intent(in) :: points(:, :)
+      integer :: axis
+      box_sites = 1.0_dp
+      do axis = 1, 3
+        box_sites = box_sites * fft_size(2 * (ceiling(maxval(points(axis, :)) - minval(points(axis, :))) + op%stencil) + 1)
+      end do
+    end function box_sites
+  end subroutine choose_frame
+
+  !> D_Q of the frame for unknowns of these degrees and families (groups: runs of one (n, sigma)).
+  subroutine set_turn(op, order, degree, family)
+    type(pfft_operator_t), intent(inout) :: op
+    integer, intent(in) :: order, degree(:), family(:)
+    integer :: a, groups
+    allocate (op%turn(2 * order + 1, 2 * order + 1, order))
+    call degree_rotations(make_rotation_rule(order), op%frame, op%turn)
+    allocate (op%group_first(size(degree)), op%group_last(size(degree)), op%group_degree(size(degree)))
+    groups = 0
+    do a = 1, size(degree)
+      if (a > 1) then
+        if (degree(a) == degree(a - 1) .and. family(a) == family(a - 1)) cycle
+      end if
+      groups = groups + 1
+      op%group_first(groups) = a
+      op%group_last(groups) = a + 2 * degree(a)
+      op%group_degree(groups) = degree(a)
+    end do
+    op%group_first = op%group_first(1:groups)
+    op%group_last = op%group_last(1:groups)
+    op%group_degree = op%group_degree(1:groups)
+  end subroutine set_turn
+
+  subroutine make_frame_vectors(comm, op)
+    MPI_Comm, intent(in) :: comm
+    type(pfft_operator_t), intent(inout) :: op
+    PetscErrorCode :: ierr
+    PetscInt :: local_size, global_size
+    local_size = int(op%n_local * op%block_size)
+    global_size = int(op%n_beads * op%block_size)
+    PetscCallA(VecCreateMPI(comm, local_size, global_size, op%frame_x, ierr))
+    PetscCallA(VecDuplicate(op%frame_x, op%frame_y, ierr))
+  end subroutine make_frame_vectors
+
+  !> out = D_Q in (to_lab) or D_Q^T in, bead by bead and group by group.
+  subroutine turn_vector(op, in, out, to_lab, ierr)
+    type(pfft_operator_t), intent(in) :: op
+    Vec :: in, out
+    logical, intent(in) :: to_lab
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: source(:), target_(:)
+    integer(i8) :: bead
+    integer :: g, n, f, l, offset
+    PetscCall(VecGetArrayReadF90(in, source, ierr))
+    PetscCall(VecGetArrayF90(out, target_, ierr))
+    do bead = 1, op%n_local
+      offset = int((bead - 1) * op%block_size)
+      do g = 1, size(op%group_first)
+        n = op%group_degree(g)
+        f = offset + op%group_first(g)
+        l = offset + op%group_last(g)
+        if (to_lab) then
+          target_(f:l) = matmul(op%turn(1:2 * n + 1, 1:2 * n + 1, n), source(f:l))
+        else
+          target_(f:l) = matmul(source(f:l), op%turn(1:2 * n + 1, 1:2 * n + 1, n))
+        end if
+      end do
+    end do
+    PetscCall(VecRestoreArrayF90(out, target_, ierr))
+    PetscCall(VecRestoreArrayReadF90(in, source, ierr))
+  end subroutine turn_vector
+
   subroutine make_shell(comm, op, matrix)
     MPI_Comm, intent(in) :: comm
     type(pfft_operator_t), target, intent(inout) :: op
@@ -565,6 +684,12 @@ contains
     companion%stencil = parent%stencil
     companion%near_radius = parent%near_radius
     companion%self_block = parent%self_block(unknowns, unknowns)
+    companion%turned = parent%turned
+    if (parent%turned) then
+      companion%frame = parent%frame
+      companion%turn = parent%turn
+      call companion_groups()
+    end if
     companion%n_grid = parent%n_grid
     companion%near_pairs = parent%near_pairs
     if (.not. parent%has_companion_correction) then
@@ -581,9 +706,30 @@ contains
     PetscCallA(ISDestroy(bead_rows, ierr))
     PetscCallA(ISDestroy(grid_rows, ierr))
     PetscCallA(MatCreateVecs(companion%grid_matrix, companion%grid_x, companion%grid_y, ierr))
+    if (companion%turned) call make_frame_vectors(comm, companion)
     call make_shell(comm, companion, matrix)
 
   contains
+
+    !> The parent's (n, sigma) groups that the sub-basis keeps whole (a lower order keeps whole
+    !> degrees), renumbered in the sub-basis.
+    subroutine companion_groups()
+      integer :: g, a, groups
+      allocate (companion%group_first(size(parent%group_first)), companion%group_last(size(parent%group_first)), &
+                companion%group_degree(size(parent%group_first)))
+      groups = 0
+      do g = 1, size(parent%group_first)
+        a = findloc(unknowns, parent%group_first(g), dim=1)
+        if (a == 0) cycle
+        groups = groups + 1
+        companion%group_first(groups) = a
+        companion%group_last(groups) = a + parent%group_last(g) - parent%group_first(g)
+        companion%group_degree(groups) = parent%group_degree(g)
+      end do
+      companion%group_first = companion%group_first(1:groups)
+      companion%group_last = companion%group_last(1:groups)
+      companion%group_degree = companion%group_degree(1:groups)
+    end subroutine companion_groups
 
     !> The parent's unknowns `unknowns` of this rank's items first..first+n-1 (global, 0-based).
     subroutine sub_unknowns(first, n, set)
@@ -619,6 +765,10 @@ contains
     end if
     PetscCallA(VecDestroy(op%grid_x, ierr))
     PetscCallA(VecDestroy(op%grid_y, ierr))
+    if (op%turned) then
+      PetscCallA(VecDestroy(op%frame_x, ierr))
+      PetscCallA(VecDestroy(op%frame_y, ierr))
+    end if
     call destroy_fft_operator(op%grid, op%grid_matrix)
     PetscCallA(MatDestroy(matrix, ierr))
     op%created = .false.
@@ -631,10 +781,26 @@ contains
     PetscErrorCode :: ierr
     type(pfft_operator_t), pointer :: op
     PetscCall(MatShellGetContext(matrix, op, ierr))
-    PetscCall(MatMultTranspose(op%interpolation, x, op%grid_x, ierr))
-    PetscCall(MatMult(op%grid_matrix, op%grid_x, op%grid_y, ierr))
-    PetscCall(MatMult(op%interpolation, op%grid_y, y, ierr))
-    PetscCall(MatMultAdd(op%correction, x, y, y, ierr))
+    if (op%turned) then
+      call turn_vector(op, x, op%frame_x, .false., ierr)
+      CHKERRQ(ierr)
+      call frame_product(op%frame_x, op%frame_y)
+      call turn_vector(op, op%frame_y, y, .true., ierr)
+      CHKERRQ(ierr)
+    else
+      call frame_product(x, y)
+    end if
     ierr = 0
+
+  contains
+
+    !> The product in the grid's frame.
+    subroutine frame_product(u, v)
+      Vec :: u, v
+      PetscCall(MatMultTranspose(op%interpolation, u, op%grid_x, ierr))
+      PetscCall(MatMult(op%grid_matrix, op%grid_x, op%grid_y, ierr))
+      PetscCall(MatMult(op%interpolation, op%grid_y, v, ierr))
+      PetscCall(MatMultAdd(op%correction, u, v, v, ierr))
+    end subroutine frame_product
   end subroutine apply_pfft_operator
 end module beadmob_pfft_operator
