@@ -67,7 +67,7 @@ contains
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(out) :: transforms(:, :, :)
     real(dp), allocatable :: points(:, :), weights(:), here(:, :, :), moved(:, :, :)
-    real(dp) :: q(3, 3)
+    real(dp) :: q(3, 3), diagonal_block(3 * (2 * basis%order + 1), 3 * (2 * basis%order + 1))
     integer :: s, p, n, rows, first, last, block
     call sphere_rule([0.0_dp, 0.0_dp, 1.0_dp], bead_radius, basis%order + 4, 2 * basis%order + 6, points, weights)
     ! The weighted densities at the nodes do not depend on the symmetry: evaluated once. Each
@@ -94,7 +94,8 @@ contains
         last = findloc(basis%degree, n, dim=1, back=.true.)
         block = last - first + 1
         call dgemm('T', 'N', block, block, rows, 1.0_dp, here(:, :, first:last), rows, moved(:, :, first:last), &
-                   rows, 0.0_dp, transforms(first:last, first:last, s), block)
+                   rows, 0.0_dp, diagonal_block, size(diagonal_block, 1))
+        transforms(first:last, first:last, s) = diagonal_block(1:block, 1:block)
       end do
     end do
   end subroutine basis_transforms

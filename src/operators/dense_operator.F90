@@ -17,7 +17,7 @@ module beadmob_dense_operator
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block, axial_nodes
-  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t, place_block_in_row
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds
   implicit none
   private
@@ -118,8 +118,8 @@ contains
           call rotated_block(axial, centres(:, bead) - centres(:, j), block)
         end if
         k = int(j - bead)
-        call place_block(block, k, int(n - bead + 1), values)
-        if (this%has_companion_matrix) call place_block(block(options%companion_unknowns, options%companion_unknowns), &
+        call place_block_in_row(block, k, int(n - bead + 1), values)
+        if (this%has_companion_matrix) call place_block_in_row(block(options%companion_unknowns, options%companion_unknowns), &
                                                         k, int(n - bead + 1), low_values)
         columns(k + 1) = int(j - 1)
       end do
@@ -147,18 +147,6 @@ contains
     end subroutine finish
   end subroutine create_dense
 
-  !> Block number `slot` of `blocks` blocks in PETSc's values of one block row: row-major over
-  !> the (block size) x (blocks x block size) dense rows.
-  pure subroutine place_block(block, slot, blocks, values)
-    real(dp), intent(in) :: block(:, :)
-    integer, intent(in) :: slot, blocks
-    real(dp), intent(inout) :: values(:)
-    integer :: r, m
-    m = size(block, 1)
-    do r = 1, m
-      values((r - 1) * m * blocks + slot * m + 1:(r - 1) * m * blocks + (slot + 1) * m) = block(r, :)
-    end do
-  end subroutine place_block
 
   subroutine dense_companion(this, comm, unknowns, companion, err)
     class(dense_operator_t), target, intent(inout) :: this

@@ -14,7 +14,7 @@ module beadmob_multipole_operator
   use beadmob_operator_cost, only: job_size_t, operator_cost_t
   implicit none
   private
-  public :: multipole_operator_t, operator_options_t
+  public :: multipole_operator_t, operator_options_t, place_block_in_row
 
   !> What some operators need beyond the beads and the basis.
   type :: operator_options_t
@@ -88,6 +88,20 @@ module beadmob_multipole_operator
   end interface
 
 contains
+
+  !> Block number `slot` (0-based) of `blocks` blocks in the values of one block row as PETSc's
+  !> MatSetValuesBlocked takes them: row-major over the (block size) x (blocks x block size)
+  !> dense rows.
+  pure subroutine place_block_in_row(block, slot, blocks, values)
+    real(dp), intent(in) :: block(:, :)
+    integer, intent(in) :: slot, blocks
+    real(dp), intent(inout) :: values(:)
+    integer :: r, m
+    m = size(block, 1)
+    do r = 1, m
+      values((r - 1) * m * blocks + slot * m + 1:(r - 1) * m * blocks + (slot + 1) * m) = block(r, :)
+    end do
+  end subroutine place_block_in_row
 
   subroutine apply(this, x, y)
     class(multipole_operator_t), intent(in) :: this

@@ -27,7 +27,7 @@ module beadmob_pfft_operator
   use beadmob_harmonic_rotation, only: make_rotation_rule, degree_rotations
   use beadmob_lapack, only: dsyev
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion, fft_size
-  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t, place_block_in_row
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
   implicit none
@@ -494,9 +494,9 @@ contains
             call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
           end if
           exact = exact - approximate(:, :, k - first_pair + 1)
-          call place_block(exact, k - p, q - p + 1, row_values)
+          call place_block_in_row(exact, k - p, q - p + 1, row_values)
           if (op%has_companion_correction) &
-            call place_block(exact(companion_unknowns, companion_unknowns), k - p, q - p + 1, low_values)
+            call place_block_in_row(exact(companion_unknowns, companion_unknowns), k - p, q - p + 1, low_values)
           columns(k - p + 1) = pair_column(k) - 1
         end do
         block_row(1) = pair_row(p) - 1
@@ -519,18 +519,6 @@ contains
 
   contains
 
-    !> Block number `slot` of `blocks` blocks in PETSc's values of one block row: row-major over
-    !> the (block size) x (blocks x block size) dense rows.
-    pure subroutine place_block(block, slot, blocks, values)
-      real(dp), intent(in) :: block(:, :)
-      integer, intent(in) :: slot, blocks
-      PetscScalar, intent(inout) :: values(:)
-      integer :: r, size_
-      size_ = size(block, 1)
-      do r = 1, size_
-        values((r - 1) * size_ * blocks + slot * size_ + 1:(r - 1) * size_ * blocks + (slot + 1) * size_) = block(r, :)
-      end do
-    end subroutine place_block
 
     !> near(1:n_near): the beads closer than the near radius to bead b (b itself included).
     subroutine near_beads(b)

@@ -11,6 +11,7 @@ program test_fft_operator
   use petscmat
   use beadmob_kinds, only: dp, i8
   use beadmob_testing
+  use beadmob_random_vectors, only: fill_random, hash_uniform
   use beadmob_errors, only: error_t
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, block_range
@@ -143,33 +144,7 @@ contains
                                'off-lattice message names the bead and the lattice: ' // err%message)
   end subroutine check_off_lattice_refused
 
-  !> Entries from the global index only, so 1 and 2 ranks see the same x.
-  subroutine fill_random(v, stream)
-    Vec, intent(inout) :: v
-    integer, intent(in) :: stream
-    PetscScalar, pointer :: values(:)
-    PetscInt :: start, finish, k
-    PetscCallA(VecGetOwnershipRange(v, start, finish, ierr))
-    PetscCallA(VecGetArrayF90(v, values, ierr))
-    do k = start, finish - 1
-      values(k - start + 1) = hash_uniform(int(k, i8) * 7919_i8 + stream * 104729_i8) - 0.5_dp
-    end do
-    PetscCallA(VecRestoreArrayF90(v, values, ierr))
-  end subroutine fill_random
 
-  !> A uniform number in (0, 1) from an integer: three steps of the Park-Miller generator
-  !> (multiplier 16807, modulus 2^31 - 1; no integer overflow in 64 bits).
-  pure real(dp) function hash_uniform(seed)
-    integer(i8), intent(in) :: seed
-    integer(i8), parameter :: modulus = 2147483647_i8
-    integer(i8) :: z
-    integer :: step
-    z = mod(abs(seed), modulus - 1) + 1
-    do step = 1, 3
-      z = mod(16807_i8 * z, modulus)
-    end do
-    hash_uniform = real(z, dp) / real(modulus, dp)
-  end function hash_uniform
 
   !> Lattice points of a cone: base radius 3 at z = 0, apex at z = 6.
   function small_cone() result(beads)

@@ -18,6 +18,7 @@ program test_offlattice
   use petscmat
   use beadmob_kinds, only: dp, i8
   use beadmob_testing
+  use beadmob_random_vectors, only: fill_random, hash_uniform
   use beadmob_errors, only: error_t
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, block_range
@@ -64,8 +65,8 @@ contains
     worst = 0.0_dp
     do k = 1, 12
       ! a direction and a distance in [1, 13) d from a fixed sequence; k = 1: touching on the x axis
-      d = [uniform(3 * k), uniform(3 * k + 1), uniform(3 * k + 2)] - 0.5_dp
-      d = d / norm2(d) * (1.0_dp + 12.0_dp * uniform(100 + k)**2)
+      d = [hash_uniform(int(3 * k, i8)), hash_uniform(int(3 * k + 1, i8)), hash_uniform(int(3 * k + 2, i8))] - 0.5_dp
+      d = d / norm2(d) * (1.0_dp + 12.0_dp * hash_uniform(int(100 + k, i8))**2)
       if (k == 1) d = [1.0_dp, 0.0_dp, 0.0_dp]
       call pair_block(basis, d, quadrature)
       call rotated_block(table, d, turned)
@@ -218,34 +219,10 @@ contains
     integer :: i
     beads = 1.1_dp * lattice_box(counts)
     do i = 1, size(beads, 2)
-      beads(:, i) = beads(:, i) + 0.08_dp * ([uniform(7 * i), uniform(7 * i + 1), uniform(7 * i + 2)] - 0.5_dp)
+      beads(:, i) = beads(:, i) + 0.08_dp * ([hash_uniform(int(7 * i, i8)), hash_uniform(int(7 * i + 1, i8)), &
+                                              hash_uniform(int(7 * i + 2, i8))] - 0.5_dp)
     end do
   end function jittered
 
-  !> Entries from the global index only, so 1 and 2 ranks see the same x.
-  subroutine fill_random(v, stream)
-    Vec, intent(inout) :: v
-    integer, intent(in) :: stream
-    PetscScalar, pointer :: values(:)
-    PetscInt :: start, finish, k
-    PetscCallA(VecGetOwnershipRange(v, start, finish, ierr))
-    PetscCallA(VecGetArrayF90(v, values, ierr))
-    do k = start, finish - 1
-      values(k - start + 1) = uniform(int(k) * 7919 + stream * 104729) - 0.5_dp
-    end do
-    PetscCallA(VecRestoreArrayF90(v, values, ierr))
-  end subroutine fill_random
 
-  !> A uniform number in (0, 1) from an integer (three Park-Miller steps).
-  pure real(dp) function uniform(seed)
-    integer, intent(in) :: seed
-    integer(i8), parameter :: modulus = 2147483647_i8
-    integer(i8) :: z
-    integer :: step
-    z = mod(abs(int(seed, i8)), modulus - 1) + 1
-    do step = 1, 3
-      z = mod(16807_i8 * z, modulus)
-    end do
-    uniform = real(z, dp) / real(modulus, dp)
-  end function uniform
 end program test_offlattice
