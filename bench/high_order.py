@@ -31,7 +31,7 @@ MODELS = {
     "2 x 2 x 2 cube": [[i % 2, (i // 2) % 2, i // 4] for i in range(8)],
 }
 CASES = [("3-bead chain", 8), ("3-bead chain", 12), ("3-bead chain", 16), ("5-bead chain", 16),
-         ("4 jittered beads", 8), ("4 jittered beads", 12), ("2 x 2 x 2 cube", 8), ("2 x 2 x 2 cube", 12)]
+         ("4 jittered beads", 12), ("2 x 2 x 2 cube", 12)]
 
 
 def run(model, order, operator):

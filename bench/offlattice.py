@@ -19,6 +19,7 @@ usage: python3 bench/offlattice.py [--sizes 2000,5000,20000] [--kinds jittered,s
        pip install pygrpy)
 """
 import argparse
+import json
 import os
 import platform
 import re
@@ -140,15 +141,36 @@ def main():
     parser.add_argument("--kinds", default="jittered,shell,cone")
     parser.add_argument("--skip-pygrpy", action="store_true")
     parser.add_argument("--skip-direct", action="store_true")
+    parser.add_argument("--redo", action="store_true", help="run every model again (else earlier rows are kept)")
+    parser.add_argument("--again", default="", help="comma-separated models (e.g. jittered_2000) whose beadmob runs "
+                        "are made again, their pygrpy and direct references kept")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "offlattice.md"))
     args = parser.parse_args()
+    args.again = args.again.split(",")
     os.makedirs(WORK, exist_ok=True)
     sizes = [int(s) for s in args.sizes.split(",")]
     makers = {"jittered": jittered, "shell": shell, "cone": cone}
+    # Rows of earlier runs of this script are kept (a long run can be continued); --redo: none.
+    saved = os.path.join(WORK, "rows.json")
+    done = {} if args.redo or not os.path.exists(saved) else json.load(open(saved))
     rows = []
     pygrpy_rate = None
     for n in sizes:
         for kind in args.kinds.split(","):
+            key = f"{kind}_{n}"
+            if key in args.again and key in done:
+                # the beadmob runs again (a disturbed machine), the references kept
+                beads = f"{kind}_{n}.txt"
+                done[key]["l1_seconds"], done[key]["l1_peak"], _ = run_beadmob(f"{key}_L1", beads, 1)
+                done[key]["default_seconds"], done[key]["default_peak"], _ = run_beadmob(f"{key}_default", beads, None)
+                json.dump(done, open(saved, "w"), indent=1)
+            if key in done:
+                rows.append(done[key])
+                if "pygrpy_seconds" in done[key]:
+                    pygrpy_rate = done[key]["pygrpy_seconds"] / done[key]["n"]**3
+                elif pygrpy_rate is not None:
+                    done[key]["pygrpy_estimate"] = pygrpy_rate * done[key]["n"]**3
+                continue
             points = makers[kind](n)
             beads = f"{kind}_{n}.txt"
             np.savetxt(os.path.join(WORK, beads), points, header=f"{kind} model, {len(points)} beads (bench/offlattice.py)")
@@ -169,7 +191,11 @@ def main():
                 row["direct_seconds"], row["direct_peak"], direct_path = run_beadmob(
                     f"{kind}_{n}_default_direct", beads, None, ("-operator", "direct"))
                 row["pfft_vs_direct"] = difference(mobility_of(default_path)[0], mobility_of(direct_path)[0])
+            row = {k: (v.decode() if isinstance(v, bytes) else float(v) if isinstance(v, np.floating) else v)
+                   for k, v in row.items()}
             rows.append(row)
+            done[key] = row
+            json.dump(done, open(saved, "w"), indent=1)
             print(row, flush=True)
     write_table(rows, args.out)
 

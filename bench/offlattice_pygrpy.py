@@ -22,15 +22,15 @@ units of the centres, mobility about the origin of the coordinates given (hence 
 
 Subcommands:
   check            single sphere and two touching beads against closed-form RPY values, and
-                   the 200-bead models against this file's own dense numpy implementation
-                   (rpy_rigid_friction), to ~1e-10 relative
+                   the 200-bead models of bench/offlattice.py against this file's own dense numpy
+                   implementation (rpy_rigid_friction), to ~1e-10 relative
   time FILE ...    pygrpy on bead files (text, "x y z" in d), each in its own subprocess: wall
                    time of the whole call and of its parts (grand mobility build, the 6N x 6N
                    inverse), peak resident memory (getrusage); rows appended to --csv
   estimate N ...   pygrpy time and memory at N beads from the measured rows of --csv (build ~ N^2,
                    inverse ~ N^3, memory ~ N^2)
 
-usage: python3 bench/offlattice_pygrpy.py check [--models bench/offlattice_runs/models]
+usage: python3 bench/offlattice_pygrpy.py check
        OPENBLAS_NUM_THREADS=1 python3 bench/offlattice_pygrpy.py time FILE.txt [...] [--csv C]
        python3 bench/offlattice_pygrpy.py estimate 5000 20000 [--csv C]
 """
@@ -48,7 +48,6 @@ import numpy as np
 import scipy.linalg
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-MODELS = os.path.join(ROOT, "bench", "offlattice_runs", "models")
 TIMES_CSV = os.path.join(ROOT, "bench", "offlattice_runs", "pygrpy_times.csv")
 RADIUS = 0.5
 
@@ -174,7 +173,7 @@ def touching_pair_mobility():
     return np.diag(diag)
 
 
-def check(models):
+def check():
     rows = []
     sphere, _ = pygrpy_mobility(np.zeros((1, 3)))
     expect = np.diag([1 / (3 * np.pi)] * 3 + [1 / np.pi] * 3)
@@ -187,7 +186,7 @@ def check(models):
     rows.append(("touching pair: own vs closed form",
                  scaled_difference(np.linalg.inv(rpy_rigid_friction(pair)), expect)))
     # the same pair turned and shifted: pygrpy must follow R M R^T (tests the centroid shift too)
-    from offlattice_models import rotation
+    from offlattice import rotation
     q = rotation((1, 2, 3), 30)
     turned = pair @ q.T + np.array([3.0, -1.0, 2.0])
     big_q = np.kron(np.eye(2), q)
@@ -197,12 +196,10 @@ def check(models):
     for label, value in rows:
         print(f"  {label}: {value:.2e}")
     worst = max(v for _, v in rows)
+    import offlattice   # the benchmark's models, at 200 beads
+    os.makedirs(offlattice.WORK, exist_ok=True)
     for kind in ("jittered", "shell", "cone"):
-        path = os.path.join(models, f"{kind}_200.txt")
-        if not os.path.exists(path):
-            print(f"  {path} missing: run python3 bench/offlattice_models.py --sizes 200")
-            continue
-        x = np.loadtxt(path)
+        x = getattr(offlattice, kind)(200)
         zeta_pygrpy, seconds = pygrpy_friction(x)
         start = time.perf_counter()
         zeta_own = rpy_rigid_friction(x)
@@ -287,7 +284,6 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("check")
-    p.add_argument("--models", default=MODELS)
     p = sub.add_parser("time")
     p.add_argument("files", nargs="+")
     p.add_argument("--csv", default=TIMES_CSV)
@@ -299,7 +295,7 @@ def main():
     args = parser.parse_args()
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     if args.command == "check":
-        return check(args.models)
+        return check()
     if args.command == "time":
         return time_files(args.files, args.csv)
     if args.command == "estimate":

@@ -613,7 +613,8 @@ contains
   !> out = D_Q in (to_lab) or D_Q^T in, bead by bead and group by group.
   subroutine turn_vector(op, in, out, to_lab, ierr)
     type(pfft_operator_t), intent(in) :: op
-    Vec :: in, out
+    Vec, intent(in) :: in
+    Vec, intent(inout) :: out
     logical, intent(in) :: to_lab
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: source(:), target_(:)
@@ -784,7 +785,8 @@ contains
 
     !> The product in the grid's frame.
     subroutine frame_product(u, v)
-      Vec :: u, v
+      Vec, intent(in) :: u
+      Vec, intent(inout) :: v
       PetscCall(MatMultTranspose(op%interpolation, u, op%grid_x, ierr))
       PetscCall(MatMult(op%grid_matrix, op%grid_x, op%grid_y, ierr))
       PetscCall(MatMult(op%interpolation, op%grid_y, v, ierr))

@@ -39,12 +39,12 @@ program test_offlattice
   suite = start_tests('test_offlattice')
   ctx = make_run_context(PETSC_COMM_WORLD)
 
-  do order = 1, 6
+  do order = 1, 5
     call check_axial_blocks(order)
   end do
   call check_rotations(5)
   call compare_products(lattice_box([5, 4, 3]), 1.0e-12_dp, 'lattice box 5 x 4 x 3')
-  call compare_products(jittered([7, 6, 5]), 3.0e-2_dp, 'jittered 7 x 6 x 5 cluster')
+  call compare_products(jittered([5, 4, 4]), 3.0e-2_dp, 'jittered 5 x 4 x 4 cluster')
   call check_turned_body()
 
   call finish_tests(suite)
@@ -63,7 +63,7 @@ contains
     call make_axial_table(basis, table)
     allocate (quadrature(basis%size, basis%size), turned(basis%size, basis%size))
     worst = 0.0_dp
-    do k = 1, 12
+    do k = 1, 8
       ! a direction and a distance in [1, 13) d from a fixed sequence; k = 1: touching on the x axis
       d = [hash_uniform(int(3 * k, i8)), hash_uniform(int(3 * k + 1, i8)), hash_uniform(int(3 * k + 2, i8))] - 0.5_dp
       d = d / norm2(d) * (1.0_dp + 12.0_dp * hash_uniform(int(100 + k, i8))**2)
@@ -163,7 +163,7 @@ contains
     type(friction_result_t) :: lattice_result, turned_result
     type(error_t) :: err
     integer :: i
-    body = lattice_box([2, 3, 10])
+    body = lattice_box([2, 2, 8])
     body = reshape([body, 2.0_dp, 0.0_dp, 0.0_dp, 3.0_dp, 0.0_dp, 0.0_dp], [3, size(body, 2) + 2])
     axis = [1.0_dp, 2.0_dp, 3.0_dp] / sqrt(14.0_dp)
     angle = acos(-1.0_dp) / 6.0_dp
@@ -178,7 +178,7 @@ contains
     centre = sum(body, dim=2) / size(body, 2)
     turned = matmul(q, body - spread(centre, 2, size(body, 2)))
     settings%lubrication = .false.
-    settings%krylov_rtol = 1.0e-9_dp
+    settings%krylov_rtol = 1.0e-6_dp   ! the variational friction's solver error ~1e-12 (theory.md T5)
     settings%use_symmetry = .false.
     settings%operator_name = 'fft'
     call friction_of_model(ctx, settings, body, centre, lattice_result, err)
