@@ -87,6 +87,9 @@ contains
       settings%shell_layers = config%hydrodynamics%shell_layers
       settings%cache_file = config%hydrodynamics%cache_file
       if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
+      ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines
+      ! (the plan's estimate line too).
+      settings%progress = settings%progress .and. config%progress
       ! Know before you run: the dry run stops here, a job that cannot fit is refused here,
       ! before the geometry checks (O(N) passes that a model far too large should not wait for).
       call plan_friction_job(ctx, settings, model%centres, dry_run, err)
