@@ -200,6 +200,10 @@ def main():
     write_table(rows, args.out)
 
 
+def short(value):
+    return "-" if value is None else f"{value:.1e}"
+
+
 def fmt_time(seconds):
     return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
@@ -231,7 +235,7 @@ def write_table(rows, out):
             f"~{fmt_time(r['pygrpy_estimate'])} (extrapolated)" if "pygrpy_estimate" in r else "-")
         lines.append(f"| {r['kind']} | {r['n']} | {r['nearest']:.3f} | {r['operator']} | {fmt_time(r['l1_seconds'])} | "
                      f"{r['l1_peak'] / gib:.2f} GiB | {fmt_time(r['default_seconds'])} | {r['default_peak'] / gib:.2f} GiB | "
-                     f"{pyg} | {r.get('l1_vs_rpy', float('nan')):.1e} | {r.get('pfft_vs_direct', float('nan')):.1e} | "
+                     f"{pyg} | {short(r.get('l1_vs_rpy'))} | {short(r.get('pfft_vs_direct'))} | "
                      f"{r['error_bar']:.1e} |")
     worst = max([r.get("l1_vs_rpy", 0) for r in rows] + [r.get("pfft_vs_direct", 0) for r in rows])
     lines += ["", f"Worst far-field difference in the table: {worst:.1e} (docs/theory.md T16 states the pfft "
