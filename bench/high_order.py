@@ -48,7 +48,8 @@ def run(model, order, operator):
     whole = time.perf_counter() - start
     with h5py.File(os.path.join(WORK, name + ".h5")) as f:
         group = f["hydrodynamics"]
-        names = [n.decode() if isinstance(n, bytes) else n for n in group.attrs["phase_names"]]
+        names = group.attrs["phase_names"]   # one space-separated string
+        names = (names.decode() if isinstance(names, bytes) else str(names)).split()
         job = float(group.attrs["phase_seconds"][names.index("total")])
         friction = group["multipole_friction"][()]
     return job, whole, friction
