@@ -16,7 +16,7 @@ module beadmob_job_planning
   use beadmob_block_table, only: on_unit_lattice
   use beadmob_shell_model, only: shell_mask
   use beadmob_multipole_basis, only: basis_size
-  use beadmob_friction_job, only: friction_settings_t, choose_operator
+  use beadmob_friction_job, only: friction_settings_t, choose_operator, choose_solve_frame
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
   use beadmob_motion_symmetry, only: solves_needed
   use beadmob_progress, only: progress_line
@@ -124,7 +124,9 @@ contains
     !> not depend on it, and the run finds the symmetries itself), the solves its symmetries leave.
     subroutine describe_solve(solve_centres)
       real(dp), intent(in) :: solve_centres(:, :)
-      real(dp) :: centroid(3)
+      real(dp) :: centroid(3), axes(3, 3)
+      real(dp), allocatable :: turned(:, :)
+      integer :: lab_solves, body_solves
       solve_beads = size(solve_centres, 2, kind=i8)
       call choose_operator(settings%operator_name, solve_centres, basis_size(settings%order, settings%potential_order), &
                            operator_name, err)
@@ -135,6 +137,10 @@ contains
         centroid = sum(centres, dim=2) / size(centres, 2)
         n_solves = solves_needed(ctx%comm, solve_centres, centroid, settings%motions, err)
         call agree_on_error(ctx, err)
+        ! an off-lattice body may be solved in its body frame, with fewer solves (friction_job.F90)
+        if (.not. err%failed) call choose_solve_frame(ctx, settings, solve_centres, centroid, turned, axes, &
+                                                      lab_solves, body_solves, err)
+        if (allocated(turned)) n_solves = body_solves
       end if
     end subroutine describe_solve
   end subroutine plan_friction_job

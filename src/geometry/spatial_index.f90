@@ -57,23 +57,25 @@ contains
     cell_key = cell(1) + index%n_cells(1) * (cell(2) + index%n_cells(2) * cell(3))
   end function cell_key
 
-  !> Indices of the beads whose centre lies strictly closer than `radius` (<= 1) to `point`.
+  !> Indices of the beads whose centre lies strictly closer than `radius` to `point` (cells of
+  !> one d: the ceiling(radius) cells around the point's on each axis).
   subroutine beads_within(index, centres, point, radius, found, n_found)
     type(spatial_index_t), intent(in) :: index
     real(dp), intent(in) :: centres(:, :), point(3), radius
     integer(i8), allocatable, intent(inout) :: found(:)
     integer(i8), intent(out) :: n_found
     integer(i8) :: centre_cell(3), cell(3), first, k, bead
-    integer :: dx, dy, dz
+    integer :: dx, dy, dz, reach
     integer(i8), allocatable :: grown(:)
 
     n_found = 0
+    reach = max(1, ceiling(radius))
     if (.not. allocated(found)) allocate (found(32))
     if (size(index%keys) == 0) return
     centre_cell = cell_of(index, point)
-    do dz = -1, 1
-      do dy = -1, 1
-        do dx = -1, 1
+    do dz = -reach, reach
+      do dy = -reach, reach
+        do dx = -reach, reach
           cell = centre_cell + [dx, dy, dz]
           if (any(cell < 0) .or. any(cell >= index%n_cells)) cycle
           first = lower_bound(index%keys, cell_key(index, cell))

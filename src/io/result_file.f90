@@ -178,6 +178,9 @@ contains
       names = names // ' ' // motion_names(k)
     end do
     call write_attribute(group, 'solve_motions', names, err)
+    ! The motions are along these axes (columns): the identity, or the body axes of an
+    ! off-lattice body solved in its body frame (friction_job.F90, solve_frame).
+    call write_replicated_dataset(ctx, group, 'solve_axes', transpose(hydro%solve_axes), err)
     call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
     ! 0: solved; m: derived from motion m by a symmetry of the bead set (motion_symmetry.F90).
     call write_attribute(group, 'solve_source', hydro%solves%source, err)

@@ -30,6 +30,7 @@ module beadmob_pfft_operator
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t, place_block_in_row
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
+  use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within, sort_keys
   implicit none
   private
   public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
@@ -135,9 +136,10 @@ contains
     real(dp) :: near_pairs
     call fft_cost(size, cost)
     near_pairs = size%local_beads * min(real(size%solve_beads, dp), 4.0_dp / 3.0_dp * acos(-1.0_dp) * size%near_radius**3)
-    cost%blocks = near_pairs * 8 * (size%nb**2 + size%nb_low**2)
-    cost%seconds_setup = cost%seconds_setup + near_pairs * (0.1_dp * direct_seconds * size%nb**2 * 343 + &
-                                                            quadrature_seconds(size) / 100)
+    ! half of them stored and computed (the upper triangle of C), each read twice per product
+    cost%blocks = near_pairs / 2 * 8 * (size%nb**2 + size%nb_low**2)
+    cost%seconds_setup = cost%seconds_setup + near_pairs / 2 * (0.1_dp * direct_seconds * size%nb**2 * 343 + &
+                                                                quadrature_seconds(size) / 100)
     cost%seconds_product = cost%seconds_product + direct_seconds * size%nb**2 * near_pairs
     cost%seconds_low_product = cost%seconds_low_product + direct_seconds * size%nb_low**2 * near_pairs
   end subroutine pfft_cost
@@ -251,7 +253,8 @@ contains
                              keep_lattice=present(companion_unknowns))
     if (err%failed) return
     call assemble_interpolation(comm, op, first, weights, node_id)
-    call assemble_correction(comm, basis, op, grid_centres, first, weights, companion_unknowns)
+    call assemble_correction(comm, basis, op, grid_centres, first, weights, err, companion_unknowns)
+    if (err%failed) return
     PetscCallA(MatCreateVecs(op%grid_matrix, op%grid_x, op%grid_y, ierr))
     if (op%turned) call make_frame_vectors(comm, op)
     call make_shell(comm, op, matrix)
@@ -322,25 +325,30 @@ contains
     end subroutine stencil_columns
   end subroutine assemble_interpolation
 
-  !> C: for every near pair (i in this rank's rows), the exact block minus the grid's
+  !> C: for every near pair (i in this rank's rows, j >= i: C is symmetric and kept as the upper
+  !> triangle of blocks, SBAIJ, half the memory and memory traffic of its product), the exact block minus the grid's
   !> approximation sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D
   !> correlations of the two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
   !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
   !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once
   !> per offset instead of once per pair).
-  subroutine assemble_correction(comm, basis, op, centres, first, weights, companion_unknowns)
+  subroutine assemble_correction(comm, basis, op, centres, first, weights, err, companion_unknowns)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     type(pfft_operator_t), intent(inout) :: op
     real(dp), intent(in) :: centres(:, :)
     integer, intent(in) :: first(:, :)
     real(dp), intent(in) :: weights(:, :, :)
+    type(error_t), intent(inout) :: err
     integer, intent(in), optional :: companion_unknowns(:)
     type(axial_table_t) :: axial
     real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
                              exact_batch(:, :, :), row_values(:), low_values(:)
     real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
     integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
+    type(spatial_index_t) :: cells
+    integer(i8), allocatable :: found(:), upper(:), unused(:)
+    integer(i8) :: n_found
     PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
     PetscInt :: local_rows, global_rows, block_row(1), nb_petsc, low_size
     PetscErrorCode :: ierr
@@ -366,6 +374,8 @@ contains
     end do
 
     ! The near pairs of this rank's rows, and the preallocation of C.
+    call build_spatial_index(centres, cells, err)
+    if (err%failed) return
     local_rows = int(op%n_local * nb)
     global_rows = int(op%n_beads * nb)
     last_bead = op%first_bead + op%n_local - 1
@@ -388,11 +398,11 @@ contains
     end do
     op%near_pairs = n_pairs
     nb_petsc = nb
-    PetscCallA(MatCreateBAIJ(comm, nb_petsc, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+    PetscCallA(MatCreateSBAIJ(comm, nb_petsc, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
     op%has_companion_correction = present(companion_unknowns)
     if (op%has_companion_correction) then
       low_size = size(companion_unknowns)
-      PetscCallA(MatCreateBAIJ(comm, low_size, int(op%n_local) * low_size, int(op%n_local) * low_size, int(op%n_beads) * low_size, int(op%n_beads) * low_size, 0, diagonal, 0, off_diagonal, op%companion_correction, ierr))
+      PetscCallA(MatCreateSBAIJ(comm, low_size, int(op%n_local) * low_size, int(op%n_local) * low_size, int(op%n_beads) * low_size, int(op%n_beads) * low_size, 0, diagonal, 0, off_diagonal, op%companion_correction, ierr))
     end if
 
     ! Rows in chunks of at most ~64 MB of blocks: in a chunk, the pairs sorted by stencil offset
@@ -520,17 +530,16 @@ contains
   contains
 
 
-    !> near(1:n_near): the beads closer than the near radius to bead b (b itself included).
+    !> near(1:n_near): the beads j >= b closer than the near radius to bead b (b itself
+    !> included), in increasing order.
     subroutine near_beads(b)
       integer(i8), intent(in) :: b
-      integer(i8) :: other
-      n_near = 0
-      do other = 1, op%n_beads
-        if (sum((centres(:, other) - centres(:, b))**2) < op%near_radius**2) then
-          n_near = n_near + 1
-          near(n_near) = int(other)
-        end if
-      end do
+      call beads_within(cells, centres, centres(:, b), op%near_radius, found, n_found)
+      upper = pack(found(1:n_found), found(1:n_found) >= b)
+      unused = upper
+      call sort_keys(upper, unused)
+      n_near = size(upper)
+      near(1:n_near) = int(upper)
     end subroutine near_beads
   end subroutine assemble_correction
 

@@ -27,10 +27,11 @@ module beadmob_friction_job
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
-  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry
+  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry, solves_needed
+  use beadmob_body_frame, only: body_frame_t, compute_body_frame
   implicit none
   private
-  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, &
+  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, choose_solve_frame, &
             operator_option, companion_orders
 
   !> Off-lattice models from this many beads get the pfft operator under 'auto' (choose_operator).
@@ -103,6 +104,10 @@ module beadmob_friction_job
     !> Lattice symmetries of the bead set about the reference point (1: none but the identity;
     !> 0: not looked for, use_symmetry off)
     integer :: symmetry_group_order = 0
+    !> The axes (columns, model coordinates) of the frame the motions were solved in: the
+    !> identity, or the body frame of an off-lattice body whose symmetries show only there
+    !> (solve_frame); the friction matrices are always in model coordinates.
+    real(dp) :: solve_axes(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
     integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
     character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
     real(dp) :: near_field_radius = 0.0_dp
@@ -158,7 +163,7 @@ contains
       return
     end if
     if (settings%shell_layers == 0) then
-      call friction_of_beads(ctx, settings, centres, reference_point, result, err)
+      call solve_frame(ctx, settings, centres, reference_point, result, err)
       return
     end if
     ! Shell model (same input on every rank: the same outcome everywhere).
@@ -173,6 +178,74 @@ contains
     call friction_of_beads(ctx, settings, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), reference_point, &
                            result, err)
   end subroutine friction_of_model
+
+  !> Collective. The friction job of a full bead set, in its body frame (body_frame.f90) when the
+  !> set is off the lattice and its symmetries save solves there but not in the model's own
+  !> coordinates (a symmetric body turned by a rotation that is no lattice symmetry: its
+  !> symmetries are signed axis permutations only in its own axes). The Galerkin operator is
+  !> exactly covariant (docs/theory.md T16), so the friction of the turned set, zeta', gives
+  !> zeta = R zeta' R^T, R = diag(Q, Q), Q the body axes (columns). Only when all six motions
+  !> are asked for and no per-bead output or test stop depends on the frame.
+  subroutine solve_frame(ctx, settings, centres, reference_point, result, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    type(friction_result_t), intent(out) :: result
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: turned(:, :)
+    real(dp) :: axes(3, 3), rotation(6, 6)
+    integer :: lab_solves, body_solves
+
+    call choose_solve_frame(ctx, settings, centres, reference_point, turned, axes, lab_solves, body_solves, err)
+    if (err%failed) return
+    if (.not. allocated(turned)) then
+      call friction_of_beads(ctx, settings, centres, reference_point, result, err)
+      return
+    end if
+    call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // str(body_solves) // &
+                       ' solves for the six motions (' // str(lab_solves) // ' in the model''s coordinates)')
+    call friction_of_beads(ctx, settings, turned, reference_point, result, err)
+    if (err%failed) return
+    result%solve_axes = axes
+    rotation = 0.0_dp
+    rotation(1:3, 1:3) = axes
+    rotation(4:6, 4:6) = axes
+    result%multipole_friction = matmul(rotation, matmul(result%multipole_friction, transpose(rotation)))
+    result%friction = matmul(rotation, matmul(result%friction, transpose(rotation)))
+    result%companion_multipole_friction = matmul(rotation, matmul(result%companion_multipole_friction, &
+                                                                  transpose(rotation)))
+    result%companion_friction = matmul(rotation, matmul(result%companion_friction, transpose(rotation)))
+  end subroutine solve_frame
+
+  !> Collective. The solves of the six motions in the model's coordinates (lab_solves) and in the
+  !> body frame (body_solves); turned (allocated only when the body frame is the one to use):
+  !> the centres in the body frame about the reference point, axes the body axes (columns).
+  subroutine choose_solve_frame(ctx, settings, centres, reference_point, turned, axes, lab_solves, body_solves, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    real(dp), allocatable, intent(out) :: turned(:, :)
+    real(dp), intent(out) :: axes(3, 3)
+    integer, intent(out) :: lab_solves, body_solves
+    type(error_t), intent(inout) :: err
+    type(body_frame_t) :: frame
+    real(dp), allocatable :: candidate(:, :)
+    lab_solves = count(settings%motions)
+    body_solves = lab_solves
+    axes = 0.0_dp
+    if (.not. settings%use_symmetry .or. .not. all(settings%motions) .or. settings%bead_forces .or. &
+        settings%stop_after_solves /= 0 .or. on_unit_lattice(centres)) return
+    ! The same replicated centres on every rank: the same frame and decision everywhere.
+    call compute_body_frame(centres, frame, err)
+    if (err%failed) return
+    axes = frame%axes
+    candidate = matmul(transpose(axes), centres - spread(reference_point, 2, size(centres, 2))) + &
+                spread(reference_point, 2, size(centres, 2))
+    lab_solves = solves_needed(ctx%comm, centres, reference_point, settings%motions, err)
+    if (.not. err%failed) body_solves = solves_needed(ctx%comm, candidate, reference_point, settings%motions, err)
+    if (err%failed .or. body_solves >= lab_solves) return
+    call move_alloc(candidate, turned)
+  end subroutine choose_solve_frame
 
   !> Collective. The friction job on the bead set `centres` (all beads in the solve).
   subroutine friction_of_beads(ctx, settings, centres, reference_point, result, err)
