@@ -122,11 +122,44 @@ def mobility_of(path):
         return f["hydrodynamics/mobility"][()], f["hydrodynamics"].attrs["operator"]
 
 
-def run_pygrpy(points, reference):
+def run_pygrpy(points, reference, key):
+    """pygrpy's RPY rigid-body mobility (seconds, 6x6), kept in WORK/<key>_pygrpy.npy so that a
+    later --again compares new beadmob runs with it without running pygrpy again."""
     import pygrpy.grpy_tensors as tensors
     start = time.perf_counter()
     mobility = tensors.conglomerateMobilityMatrix(points - reference, np.full(len(points), 0.5))
-    return time.perf_counter() - start, mobility
+    seconds = time.perf_counter() - start
+    np.save(os.path.join(WORK, f"{key}_pygrpy.npy"), mobility)
+    return seconds, mobility
+
+
+def median_run(name, beads, order, repeats):
+    """The median wall time of `repeats` runs (the machine is shared), the largest peak memory."""
+    runs = [run_beadmob(name, beads, order) for _ in range(repeats)]
+    seconds = sorted(r[0] for r in runs)[len(runs) // 2]
+    return seconds, max(r[1] for r in runs), runs[-1][2], [r[0] for r in runs]
+
+
+def beadmob_rows(key, row, repeats):
+    """beadmob at L = 1 and at the default settings (medians of `repeats` runs), and the
+    comparisons with the references kept in WORK (pygrpy's matrix, the direct run)."""
+    beads = f"{key}.txt"
+    row["l1_seconds"], row["l1_peak"], l1_path, row["l1_runs"] = median_run(f"{key}_L1", beads, 1, repeats)
+    row["default_seconds"], row["default_peak"], default_path, row["default_runs"] = median_run(
+        f"{key}_default", beads, None, repeats)
+    l1_mobility, row["operator"] = mobility_of(l1_path)
+    with h5py.File(default_path) as f:
+        h = f["hydrodynamics"]
+        row["error_bar"] = float(h.attrs.get("estimated_error", np.nan))
+        row["solves"] = int(np.count_nonzero(h.attrs["solve_source"] == 0))
+        row["body_frame"] = bool(np.abs(h["solve_axes"][()] - np.eye(3)).max() > 1e-12)
+    reference = os.path.join(WORK, f"{key}_pygrpy.npy")
+    if os.path.exists(reference):
+        row["l1_vs_rpy"] = difference(l1_mobility, np.load(reference))
+    direct = os.path.join(WORK, f"{key}_default_direct.h5")
+    if os.path.exists(direct):
+        row["pfft_vs_direct"] = difference(mobility_of(default_path)[0], mobility_of(direct)[0])
+    return default_path
 
 
 def difference(a, b):
@@ -144,6 +177,7 @@ def main():
     parser.add_argument("--redo", action="store_true", help="run every model again (else earlier rows are kept)")
     parser.add_argument("--again", default="", help="comma-separated models (e.g. jittered_2000) whose beadmob runs "
                         "are made again, their pygrpy and direct references kept")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per beadmob entry below 20000 beads (median)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "offlattice.md"))
     args = parser.parse_args()
     args.again = args.again.split(",")
@@ -158,11 +192,10 @@ def main():
     for n in sizes:
         for kind in args.kinds.split(","):
             key = f"{kind}_{n}"
+            repeats = 1 if n >= 20000 else args.repeats
             if key in args.again and key in done:
-                # the beadmob runs again (a disturbed machine), the references kept
-                beads = f"{kind}_{n}.txt"
-                done[key]["l1_seconds"], done[key]["l1_peak"], _ = run_beadmob(f"{key}_L1", beads, 1)
-                done[key]["default_seconds"], done[key]["default_peak"], _ = run_beadmob(f"{key}_default", beads, None)
+                # the beadmob runs again (a changed operator or a disturbed machine), the references kept
+                beadmob_rows(key, done[key], repeats)
                 json.dump(done, open(saved, "w"), indent=1)
             if key in done:
                 rows.append(done[key])
@@ -172,25 +205,22 @@ def main():
                     done[key]["pygrpy_estimate"] = pygrpy_rate * done[key]["n"]**3
                 continue
             points = makers[kind](n)
-            beads = f"{kind}_{n}.txt"
+            beads = f"{key}.txt"
             np.savetxt(os.path.join(WORK, beads), points, header=f"{kind} model, {len(points)} beads (bench/offlattice.py)")
             row = {"kind": kind, "n": len(points), "nearest": nearest_distance(points)}
-            row["l1_seconds"], row["l1_peak"], l1_path = run_beadmob(f"{kind}_{n}_L1", beads, 1)
-            row["default_seconds"], row["default_peak"], default_path = run_beadmob(f"{kind}_{n}_default", beads, None)
-            l1_mobility, row["operator"] = mobility_of(l1_path)
-            with h5py.File(default_path) as f:
-                row["error_bar"] = float(f["hydrodynamics"].attrs.get("estimated_error", np.nan))
+            for stale in (f"{key}_pygrpy.npy", f"{key}_default_direct.h5"):
+                if os.path.exists(os.path.join(WORK, stale)):
+                    os.remove(os.path.join(WORK, stale))
             reference = points.mean(axis=0)
             if not args.skip_pygrpy and len(points) <= 2500:
-                row["pygrpy_seconds"], rpy = run_pygrpy(points, reference)
-                row["l1_vs_rpy"] = difference(l1_mobility, rpy)
+                row["pygrpy_seconds"], _ = run_pygrpy(points, reference, key)
                 pygrpy_rate = row["pygrpy_seconds"] / len(points)**3
             elif pygrpy_rate is not None:
                 row["pygrpy_estimate"] = pygrpy_rate * len(points)**3
             if not args.skip_direct and len(points) <= 2500:
-                row["direct_seconds"], row["direct_peak"], direct_path = run_beadmob(
-                    f"{kind}_{n}_default_direct", beads, None, ("-operator", "direct"))
-                row["pfft_vs_direct"] = difference(mobility_of(default_path)[0], mobility_of(direct_path)[0])
+                row["direct_seconds"], row["direct_peak"], _ = run_beadmob(
+                    f"{key}_default_direct", beads, None, ("-operator", "direct"))
+            beadmob_rows(key, row, repeats)
             row = {k: (v.decode() if isinstance(v, bytes) else float(v) if isinstance(v, np.floating) else v)
                    for k, v in row.items()}
             rows.append(row)
@@ -213,7 +243,8 @@ def write_table(rows, out):
     lines = ["# Off-lattice bead models: the precorrected-FFT operator beside pygrpy", "",
              "Generated by `python3 bench/offlattice.py` (issue 14) on the 2-core development machine "
              f"({platform.processor() or platform.machine()}, {os.cpu_count()} cores), {RANKS} MPI ranks, "
-             "one run per entry (the 20000-bead runs take minutes), OpenBLAS on one thread.",
+             "beadmob times the median of 3 runs below 20000 beads and one run at 20000 (minutes each), "
+             "OpenBLAS on one thread.",
              "Models: `jittered` a ball of lattice points scaled by 1.1 and shifted by up to 0.04 d per "
              "coordinate; `shell` beads on a sphere's surface (Fibonacci points); `cone` the paper's cone "
              "(scaled to the size) turned by 30 degrees about (1, 2, 3). beadmob: `-operator auto` (the pfft "
@@ -226,14 +257,16 @@ def write_table(rows, out):
              "Agreement: beadmob at L = 1 is the RPY mobility exactly (docs/theory.md T7), so `L=1 vs pygrpy` "
              "is the pfft far field's error alone; `pfft vs direct` compares the default run with the direct "
              "operator's (exact blocks, docs/theory.md T15). Both on the scale sqrt(M_ii M_jj) of the 6x6 "
-             "mobility, largest entry.", "",
-             "| model | beads | nearest (d) | operator | L = 1 | L = 1 memory/rank | default | default memory/rank "
+             "mobility, largest entry. `solves`: the Krylov solves of the default run's six motions (fewer "
+             "when symmetries give the others; `body frame`: found in the body's own axes, theory.md T16).", "",
+             "| model | beads | nearest (d) | operator | solves | L = 1 | L = 1 memory/rank | default | default memory/rank "
              "| pygrpy | L=1 vs pygrpy | pfft vs direct | error bar (default) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         pyg = fmt_time(r["pygrpy_seconds"]) if "pygrpy_seconds" in r else (
             f"~{fmt_time(r['pygrpy_estimate'])} (extrapolated)" if "pygrpy_estimate" in r else "-")
-        lines.append(f"| {r['kind']} | {r['n']} | {r['nearest']:.3f} | {r['operator']} | {fmt_time(r['l1_seconds'])} | "
+        solves = f"{r.get('solves', 6)}" + (" (body frame)" if r.get("body_frame") else "")
+        lines.append(f"| {r['kind']} | {r['n']} | {r['nearest']:.3f} | {r['operator']} | {solves} | {fmt_time(r['l1_seconds'])} | "
                      f"{r['l1_peak'] / gib:.2f} GiB | {fmt_time(r['default_seconds'])} | {r['default_peak'] / gib:.2f} GiB | "
                      f"{pyg} | {short(r.get('l1_vs_rpy'))} | {short(r.get('pfft_vs_direct'))} | "
                      f"{r['error_bar']:.1e} |")

@@ -23,7 +23,12 @@ SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symme
 #: from the friction compared above, they differ in the last bits; their 0/1 flags are compared.
 SOLVER_DIAGNOSTICS |= {f"{prefix}_{name}" for prefix in ("friction", "multipole_friction")
                        for name in ("asymmetry", "condition_number", "eigenvalues", "min_eigenvalue")}
-SOLVER_RESULTS = {"friction", "multipole_friction", "centre_of_mobility", "companion_friction"}
+SOLVER_RESULTS = {"friction", "multipole_friction", "centre_of_mobility"}
+#: The error bar's companion (theory.md T14): its CG starts from the order-L solution, whose last
+#: bits differ with the ranks, and stops at the default rtol 1e-3 after ~10 iterations, which
+#: carries that rounding further (measured 1.6e-9 of the largest entry, l_block_54 in a Release
+#: build; < 1e-9 in Debug): compared at 10 x the solver tolerance.
+COMPANION_RESULTS = {"companion_friction"}
 #: Derived from the inverse of the friction: a relative difference d in zeta can grow to cond(zeta) d
 #: (cond ~ 10-100 for these bodies), so these are compared at 100 x the solver tolerance.
 INVERSE_RESULTS = {"mobility", "body_mobility", "coefficients", "multipole_coefficients",
@@ -71,6 +76,9 @@ def main(a, b, solver_rtol):
         elif key.startswith("hydrodynamics/") and key.rsplit("/", 1)[-1] in INVERSE_RESULTS:
             if np.abs(x - y).max() > 100 * solver_rtol * np.abs(x).max():
                 problems.append(f"differs beyond {100 * solver_rtol:g} relative: {key}")
+        elif key.startswith("hydrodynamics/") and key.rsplit("/", 1)[-1] in COMPANION_RESULTS:
+            if np.abs(x - y).max() > 10 * solver_rtol * np.abs(x).max():
+                problems.append(f"differs beyond {10 * solver_rtol:g} relative: {key}")
         elif key.startswith("hydrodynamics/") and key.rsplit("/", 1)[-1] in SOLVER_RESULTS:
             scale = np.abs(x).max()
             if np.abs(x - y).max() > solver_rtol * scale:
