@@ -129,7 +129,7 @@ contains
       integer :: lab_solves, body_solves
       solve_beads = size(solve_centres, 2, kind=i8)
       call choose_operator(settings%operator_name, solve_centres, basis_size(settings%order, settings%potential_order), &
-                           operator_name, err)
+                           operator_name, err, settings, max(ranks, 1))
       if (err%failed) return   ! the same options and beads everywhere
       n_solves = count(settings%motions)
       if (dry_run .and. settings%use_symmetry) then

@@ -29,6 +29,7 @@ module beadmob_friction_job
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry, solves_needed
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
+  use beadmob_job_estimate, only: job_estimate_t, estimate_job
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, choose_solve_frame, &
@@ -295,7 +296,7 @@ contains
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
-    call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err)
+    call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err, settings, ctx%n_ranks)
     if (.not. err%failed .and. settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') &
       call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
     if (err%failed) then   ! same input on every rank: same outcome
@@ -627,19 +628,24 @@ contains
   !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
   !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
   !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
-  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the
-  !> precorrected FFT from pfft_min_beads on (the direct operator stores N^2 / P blocks: 4.6 GB
-  !> per rank for 2000 beads on 2 ranks; bench/offlattice.md); below that the exact direct one.
-  !> First of all, up to dense_max_beads beads (and dense_max_unknowns unknowns), the dense
-  !> operator: a few beads at high L are where Krylov iterations pile up and an exact solve of a
-  !> few thousand unknowns is cheap (bench/high_order.md: 3-5 beads at L = 8 ... 16 run 1.7-5.7x
-  !> faster; bodies with many symmetric beads keep the Krylov path, which wins there).
-  subroutine choose_operator(requested, centres, block_size, chosen, err)
+  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the one
+  !> of the direct operator (exact blocks, N^2 / P of them per rank) and the precorrected FFT
+  !> whose estimated wall time (job_estimate.f90, the dry run's cost model: set-up, solves and the
+  !> error bar's companion on n_ranks ranks) is the smaller (bench/pfft_crossover.md checks the
+  !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
+  !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
+  !> iterations pile up and an exact solve of a few thousand unknowns is cheap
+  !> (bench/high_order.md: 3-5 beads at L = 8 ... 16 run 1.7-5.7x faster; bodies with many
+  !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
+  !> the off-lattice choice.
+  subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)
     character(len=*), intent(in) :: requested
     real(dp), intent(in) :: centres(:, :)
     integer, intent(in) :: block_size
     character(len=*), intent(out) :: chosen
     type(error_t), intent(inout) :: err
+    type(friction_settings_t), intent(in), optional :: job
+    integer, intent(in), optional :: n_ranks
     real(dp) :: direct_work, fft_work, sites
     integer :: axis
     select case (trim(requested))
@@ -657,12 +663,30 @@ contains
         direct_work = real(size(centres, 2), dp)**2 * block_size
         fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
         if (direct_work > fft_work) chosen = 'fft'
-      else if (size(centres, 2) >= pfft_min_beads) then
-        chosen = 'pfft'
+      else if (present(job) .and. present(n_ranks)) then
+        if (estimated_seconds('pfft') < estimated_seconds('direct')) chosen = 'pfft'
+      else
+        call raise(err, 'internal: choose_operator needs the job settings and ranks for an off-lattice model')
       end if
     case default
       chosen = ''
       call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // trim(requested) // "'")
     end select
+
+  contains
+
+    !> The dry run's wall time of the job with this off-lattice operator (all six motions).
+    real(dp) function estimated_seconds(operator_name)
+      character(len=*), intent(in) :: operator_name
+      type(job_estimate_t) :: e
+      integer :: spans(3), a
+      do a = 1, 3   ! the pfft grid's spans (job_planning.F90); the direct operator ignores them
+        spans(a) = ceiling(maxval(centres(a, :)) - minval(centres(a, :))) + job%pfft_stencil - 1
+      end do
+      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%order, &
+                       job%potential_order, operator_name, n_ranks, 6, .false., 1.0_dp, &
+                       job%companion .and. job%order >= 2, job%pfft_near_radius)
+      estimated_seconds = e%seconds_total
+    end function estimated_seconds
   end subroutine choose_operator
 end module beadmob_friction_job
