@@ -248,8 +248,8 @@ def write_table(rows, out, elapsed=None):
              "OpenBLAS on one thread.",
              "Models: `jittered` a ball of lattice points scaled by 1.1 and shifted by up to 0.04 d per "
              "coordinate; `shell` beads on a sphere's surface (Fibonacci points); `cone` the paper's cone "
-             "(scaled to the size) turned by 30 degrees about (1, 2, 3). beadmob: `-operator auto` (the pfft "
-             "operator from 1000 off-lattice beads, stencil 4, near radius 3 d), L = 1, and the default "
+             "(scaled to the size) turned by 30 degrees about (1, 2, 3). beadmob: `-operator auto` (which picks the pfft "
+             "operator for all of these, stencil 4, near radius 3 d), L = 1, and the default "
              "settings (L = 2 with the error bar of docs/theory.md T14); time: the whole run (`mpiexec` to "
              "exit); memory: peak resident set of the largest rank (the result file's `peak_memory_bytes`). "
              "pygrpy: `conglomerateMobilityMatrix` (RPY grand mobility with rotations, dense inverse), run in "

@@ -35,8 +35,6 @@ module beadmob_friction_job
   public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, choose_solve_frame, &
             operator_option, companion_orders
 
-  !> Off-lattice models from this many beads get the pfft operator under 'auto' (choose_operator).
-  integer, parameter :: pfft_min_beads = 1000
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8
   character(len=*), parameter :: phase_names(6) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
@@ -635,7 +633,7 @@ contains
   !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
   !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
   !> iterations pile up and an exact solve of a few thousand unknowns is cheap
-  !> (bench/high_order.md: 3-5 beads at L = 8 ... 16 run 1.7-5.7x faster; bodies with many
+  !> (bench/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
   !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
   !> the off-lattice choice.
   subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)
