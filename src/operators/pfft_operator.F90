@@ -326,8 +326,8 @@ contains
   end subroutine assemble_interpolation
 
   !> C: for every near pair (i in this rank's rows, j >= i: C is symmetric and kept as the upper
-  !> triangle of blocks, SBAIJ, half the memory and memory traffic of its product), the exact block minus the grid's
-  !> approximation sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D
+  !> triangle of blocks, SBAIJ, half the memory and memory traffic of its product), the exact
+  !> block minus the grid's approximation sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D
   !> correlations of the two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
   !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
   !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once

@@ -108,7 +108,7 @@ module beadmob_friction_job
     !> (solve_frame); the friction matrices are always in model coordinates.
     real(dp) :: solve_axes(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
     integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
-    character(len=16) :: operator_name = ''        ! the operator used: 'direct' or 'fft'
+    character(len=16) :: operator_name = ''        ! the operator used: direct, fft, pfft or dense
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
     integer :: pfft_stencil = 0                    ! the pfft operator's (0: another operator)
