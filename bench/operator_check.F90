@@ -23,6 +23,7 @@ program operator_check
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
   use beadmob_friction_job, only: friction_settings_t, operator_option, choose_operator
+  use beadmob_random_vectors, only: fill_random
   implicit none
 
   integer, parameter :: n_vectors = 3
@@ -120,7 +121,7 @@ program operator_check
   do v = 1, n_vectors
     PetscCallA(MatCreateVecs(direct_matrix, x(v), y_direct(v), ierr))
     PetscCallA(VecDuplicate(x(v), y_fft(v), ierr))
-    call fill_random(x(v), v)
+    call fill_random(x(v), v, 20240501_i8)
   end do
   PetscCallA(VecDuplicate(x(1), work, ierr))
 
@@ -243,32 +244,4 @@ contains
       median = 0.5_dp * (sorted(n / 2) + sorted(n / 2 + 1))
     end if
   end function median
-
-  !> Entries from the global index only, so 1 and 2 ranks see the same vector.
-  subroutine fill_random(vector, stream)
-    Vec, intent(inout) :: vector
-    integer, intent(in) :: stream
-    PetscScalar, pointer :: values(:)
-    PetscInt :: row_start, row_end, k
-    PetscCallA(VecGetOwnershipRange(vector, row_start, row_end, ierr))
-    PetscCallA(VecGetArrayF90(vector, values, ierr))
-    do k = row_start, row_end - 1
-      values(k - row_start + 1) = hash_uniform(int(k, i8) * 7919_i8 + stream * 104729_i8 + 20240501_i8) - 0.5_dp
-    end do
-    PetscCallA(VecRestoreArrayF90(vector, values, ierr))
-  end subroutine fill_random
-
-  !> A uniform number in (0, 1) from an integer: three Park-Miller steps (multiplier 16807,
-  !> modulus 2^31 - 1; no overflow in 64 bits), as tests/fortran/test_fft_operator.F90.
-  pure real(dp) function hash_uniform(seed)
-    integer(i8), intent(in) :: seed
-    integer(i8), parameter :: modulus = 2147483647_i8
-    integer(i8) :: z
-    integer :: step
-    z = mod(abs(seed), modulus - 1) + 1
-    do step = 1, 3
-      z = mod(16807_i8 * z, modulus)
-    end do
-    hash_uniform = real(z, dp) / real(modulus, dp)
-  end function hash_uniform
 end program operator_check

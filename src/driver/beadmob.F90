@@ -8,11 +8,12 @@ program beadmob
   use beadmob_parallel, only: run_context_t, make_run_context
   use beadmob_build_info, only: program_version, git_hash
   use beadmob_run, only: run_beadmob
+  use beadmob_command_line, only: print_usage, check_command_line, input_argument, option_given
+  use beadmob_hdf5_support, only: set_hdf5_error_stack
   implicit none
   PetscErrorCode :: ierr
   type(run_context_t) :: ctx
   type(error_t) :: err
-  character(len=4096) :: input_path
   character(len=64) :: first_argument
 
   first_argument = ''
@@ -28,15 +29,12 @@ program beadmob
   PetscCallA(PetscInitialize(ierr))
   call accept_long_options()
   ctx = make_run_context(PETSC_COMM_WORLD)
-  ! The input file, when given, is the first argument (after --estimate); PETSc options follow.
-  input_path = ''
-  if (command_argument_count() >= 1) then
-    call get_command_argument(1, input_path)
-    if (input_path == '--estimate' .and. command_argument_count() >= 2) call get_command_argument(2, input_path)
-    if (input_path(1:1) == '-') input_path = ''
+  ! The same arguments on every rank: the same verdict everywhere.
+  call check_command_line(err)
+  if (.not. err%failed) then
+    call set_hdf5_error_stack(option_given('hdf5_error_stack'))
+    call run_beadmob(ctx, input_argument(), err)
   end if
-
-  call run_beadmob(ctx, trim(input_path), err)
 
   if (err%failed .and. ctx%rank == 0) write (error_unit, '(a)') 'beadmob: error: ' // err%message
   PetscCallA(PetscFinalize(ierr))
@@ -53,8 +51,10 @@ contains
       call get_command_argument(k, argument)
       if (argument == '--estimate') then
         PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-estimate', PETSC_NULL_CHARACTER, ierr))
+        call mark_used(trim(argument))
       end if
       if (argument(1:10) /= '--accuracy') cycle
+      call mark_used(trim(argument))
       equals = index(argument, '=')
       value = ''
       if (equals > 0) then
@@ -66,31 +66,11 @@ contains
     end do
   end subroutine accept_long_options
 
-  subroutine print_usage()
-    write (*, '(a)') 'usage: beadmob [--estimate] [INPUT.nml] [PETSc options]', &
-      '       mpirun -n P beadmob [INPUT.nml] [PETSc options]', &
-      '', &
-      'Builds the bead model described by INPUT.nml (Fortran namelists &run, &shape and, for the', &
-      'friction and mobility, &hydrodynamics; see README.md) and writes the result file named by', &
-      '&run output. Without INPUT.nml: the built-in default job, the paper''s cone and its mobility', &
-      'at multipole order 2, written to beadmob_result.h5.', &
-      '', &
-      'Options of beadmob (after INPUT.nml):', &
-      '  -operator direct|fft|pfft|auto  the bead operator (default auto: the faster one for the job)', &
-      '  -pfft_near_radius R, -pfft_stencil S  off-lattice far field: exact pairs within R (d,', &
-      '                              default 3), interpolation on S^3 grid points (default 4)', &
-      '  -fft_planner measure|estimate  FFTW plans: measured (default, faster) or reproducible', &
-      '  -near_field_radius R        pairs within R (d) in the preconditioning matrix (default 0)', &
-      '  -near_field_cluster C       and pairs within the same C x C x C cube of lattice cells', &
-      '  -geometry_only              build and check the bead model, skip &hydrodynamics', &
-      '  --estimate (or -estimate)   dry run: bead count, unknowns, FFT box, memory per rank and', &
-      '                              expected time of the job, nothing built (beadmob --estimate IN.nml)', &
-      '  -estimate_ranks P           the estimate for P ranks (default: the ranks of the run)', &
-      '  -quiet                      no progress lines (also &run progress = .false.)', &
-      '  -memory_limit G             GiB a rank may use (default: what the node has available,', &
-      '                              shared by its ranks); a job estimated above it is refused', &
-      '  -accuracy E (or --accuracy E)  the cheapest settings that the benchmark data say reach a', &
-      '                              relative error E of the mobility coefficients (bench/accuracy.md)', &
-      'PETSc options (-log_view, -ksp_type, -ksp_rtol, -pc_type, ...) are passed to PETSc.'
-  end subroutine print_usage
+  !> PETSc keeps a long option under its own name too: read it, so that it counts as used.
+  subroutine mark_used(name)
+    character(len=*), intent(in) :: name
+    PetscBool :: found
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, found, ierr))
+  end subroutine mark_used
+
 end program beadmob

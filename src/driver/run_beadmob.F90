@@ -16,7 +16,9 @@ module beadmob_run
   use beadmob_shape_catalog, only: build_bead_model
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
-  use beadmob_result_file, only: write_result_file
+  use beadmob_result_file, only: write_result_file, partial_suffix
+  use beadmob_file_system, only: probe_writable
+  use beadmob_command_line, only: warn_unused_options
   use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
   use beadmob_error_estimate, only: estimate_error
@@ -58,13 +60,17 @@ contains
     end if
     call parse_input_text(text, source, config, err)
     if (err%failed) return   ! every rank parsed the same text: no divergence
+    ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
+    call operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
+    if (geometry_only) config%hydrodynamics%enabled = .false.
+    ! Nothing computed may be lost to an output that cannot be written: look before building.
+    if (ctx%rank == 0) call check_output_locations(config, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
 
     call build_bead_model(ctx, config%shape, model, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
-    ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
-    call operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
-    if (geometry_only) config%hydrodynamics%enabled = .false.
     if (config%hydrodynamics%enabled) then
       ! Same options and input on every rank: the same choice (or error) everywhere.
       on_lattice = on_unit_lattice(model%centres)
@@ -133,6 +139,7 @@ contains
     if (err%failed) return
     if (ctx%rank == 0) call print_summary(config, model, frame)
     if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(config, mobility, hydro)
+    if (ctx%rank == 0) call warn_unused_options()
 
   contains
 
@@ -261,6 +268,31 @@ contains
       hydro%krylov_rtol = choice%krylov_rtol
     end associate
   end subroutine apply_accuracy_target
+
+  !> The files a run writes, tried before anything is built (call on one rank): the result's
+  !> temporary '<output>.partial' (renamed over '<output>' when complete) and, for the friction
+  !> job, the checkpoint.
+  subroutine check_output_locations(config, err)
+    type(run_config_t), intent(in) :: config
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: reason
+    logical :: exists
+    call probe_writable(trim(config%output) // partial_suffix, reason)
+    if (len(reason) > 0) then
+      call raise(err, "cannot write the result file '" // trim(config%output) // "': " // reason)
+      return
+    end if
+    ! A directory of that name would refuse the final rename ('name/.' exists only for one).
+    inquire (file=trim(config%output) // '/.', exist=exists)
+    if (exists) then
+      call raise(err, "the result file '" // trim(config%output) // "' is the name of a directory")
+      return
+    end if
+    if (.not. (config%checkpoint .and. config%hydrodynamics%enabled)) return
+    call probe_writable(trim(config%output) // checkpoint_suffix, reason)
+    if (len(reason) > 0) call raise(err, "cannot write the checkpoint '" // trim(config%output) // &
+                                    checkpoint_suffix // "' (&run checkpoint = .false. runs without one): " // reason)
+  end subroutine check_output_locations
 
   subroutine print_mobility(config, mobility, hydro)
     type(run_config_t), intent(in) :: config

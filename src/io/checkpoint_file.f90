@@ -22,7 +22,7 @@ module beadmob_checkpoint_file
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_hdf5_support, only: h5_create_parallel, h5_open_parallel_readonly, h5_close_file, write_attribute, &
                                   write_distributed_columns, read_distributed_columns, read_text_attribute, &
-                                  read_int_attribute, read_real_attribute, quiet_hdf5
+                                  read_int_attribute, read_real_attribute
   implicit none
   private
   public :: checkpoint_suffix, saved_solve_t, checkpoint_writer_t, begin_checkpoint, write_checkpoint_motion, &
@@ -148,7 +148,6 @@ contains
     if (ctx%rank == 0) inquire (file=path, exist=exists)
     call MPI_Bcast(exists, 1, MPI_LOGICAL, 0, ctx%comm, ierr)
     if (.not. exists) return
-    call quiet_hdf5(.true.)
     call h5_open_parallel_readonly(ctx, path, file_id, err)
     if (.not. err%failed) call read_text_attribute(file_id, 'format', format, err)
     if (.not. err%failed) then
@@ -168,7 +167,6 @@ contains
       call h5_close_file(file_id, ignored)
       file_id = -1
     end if
-    if (outcome /= checkpoint_matches) call quiet_hdf5(.false.)
   end subroutine open_checkpoint
 
   !> Collective. Motion `name` from an open, matching checkpoint into this rank's columns of q:
@@ -199,13 +197,12 @@ contains
     call h5dclose_f(dataset, status)
   end subroutine read_checkpoint_motion
 
-  !> Collective. Close what open_checkpoint opened; HDF5's error printing comes back.
+  !> Collective. Close what open_checkpoint opened.
   subroutine close_checkpoint(file_id, err)
     integer(hid_t), intent(inout) :: file_id
     type(error_t), intent(inout) :: err
     if (file_id >= 0) call h5_close_file(file_id, err)
     file_id = -1
-    call quiet_hdf5(.false.)
   end subroutine close_checkpoint
 
   !> Remove the checkpoint and a temporary file left next to it (call on one rank); absent

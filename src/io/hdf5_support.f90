@@ -14,7 +14,7 @@ module beadmob_hdf5_support
   private
   public :: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group
   public :: write_attribute, write_text_dataset, write_replicated_dataset, write_distributed_columns
-  public :: read_text_attribute, read_int_attribute, read_real_attribute, quiet_hdf5
+  public :: read_text_attribute, read_int_attribute, read_real_attribute, set_hdf5_error_stack
   public :: h5_open_parallel_readonly, read_distributed_columns
 
   !> Longest text attribute read back (keys are a few thousand characters at most).
@@ -365,14 +365,16 @@ contains
     call h5pset_dxpl_mpio_f(transfer, H5FD_MPIO_COLLECTIVE_F, ignored)
   end subroutine select_columns
 
-  !> HDF5 prints its error stack on every failed call by default; a damaged cache or checkpoint
-  !> is an expected case, reported by one warning line instead. `quiet` = .false. restores the printing.
-  subroutine quiet_hdf5(quiet)
-    logical, intent(in) :: quiet
+  !> HDF5 prints its error stack (tens of lines) on every failed call by default. beadmob reports
+  !> each failure in one line of its own instead (a damaged cache or checkpoint is even an
+  !> expected case), so the driver turns the stack off for the whole run; -hdf5_error_stack keeps
+  !> it, for debugging.
+  subroutine set_hdf5_error_stack(shown)
+    logical, intent(in) :: shown
     integer :: status
     call h5open_f(status)
-    call h5eset_auto_f(merge(0, 1, quiet), status)
-  end subroutine quiet_hdf5
+    call h5eset_auto_f(merge(1, 0, shown), status)
+  end subroutine set_hdf5_error_stack
 
   subroutine read_text_attribute(location, name, value, err)
     integer(hid_t), intent(in) :: location

@@ -148,6 +148,8 @@ contains
     call split_lines(text, lines)
     call check_group_names(lines, source, err)
     if (err%failed) return
+    call check_group_terminators(lines, source, err)
+    if (err%failed) return
     call read_run_group(lines, source, config, err)
     if (err%failed) return
     call read_shape_group(lines, source, config%shape, found, err)
@@ -358,27 +360,6 @@ contains
       end do
     end function word_at
 
-    !> The line with quoted texts blanked and the comment cut off.
-    pure function unquoted(line) result(plain)
-      character(len=*), intent(in) :: line
-      character(len=len(line)) :: plain
-      character :: quote
-      integer :: k
-      plain = line
-      quote = ' '
-      do k = 1, len(line)
-        if (quote /= ' ') then
-          if (line(k:k) == quote) quote = ' '
-          plain(k:k) = ' '
-        else if (line(k:k) == '"' .or. line(k:k) == "'") then
-          quote = line(k:k)
-          plain(k:k) = ' '
-        else if (line(k:k) == '!') then
-          plain(k:) = ' '
-          exit
-        end if
-      end do
-    end function unquoted
   end subroutine check_logical_value
 
   !> &hydrodynamics motions: 'all', or blank-separated motion names (U_x ... W_z, translations,
@@ -564,6 +545,66 @@ contains
       end if
     end do
   end subroutine check_group_names
+
+  !> Every group must end with '/' (or &end) before the next group or the end of the file:
+  !> gfortran reads an unterminated last group without a word, and one followed by another group
+  !> into that group's text. Slashes inside quoted texts (file paths) and comments do not count.
+  subroutine check_group_terminators(lines, source, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(error_t), intent(inout) :: err
+    character(len=:), allocatable :: group, open_group, text
+    integer :: i, open_line, body_start
+    open_group = ''
+    open_line = 0
+    do i = 1, size(lines)
+      text = unquoted(lines(i))
+      group = group_on_line(lines(i))
+      body_start = 1
+      if (len(group) > 0) then
+        if (group == 'end') then
+          open_group = ''
+          cycle
+        end if
+        if (len(open_group) > 0) exit
+        open_group = group
+        open_line = i
+        body_start = index(text, '&') + len(group) + 1
+      end if
+      if (len(open_group) > 0 .and. body_start <= len(text)) then
+        if (index(text(body_start:), '/') > 0) open_group = ''
+      end if
+    end do
+    if (len(open_group) == 0) return
+    if (i <= size(lines)) then
+      call raise(err, source // ' line ' // str(open_line) // ': namelist group &' // open_group // &
+                 " has no closing '/' before &" // group // ' on line ' // str(i))
+    else
+      call raise(err, source // ' line ' // str(open_line) // ': namelist group &' // open_group // &
+                 " has no closing '/' (the file ends first)")
+    end if
+  end subroutine check_group_terminators
+
+  !> The line with quoted texts blanked and the comment cut off.
+  pure function unquoted(line) result(plain)
+    character(len=*), intent(in) :: line
+    character(len=len(line)) :: plain
+    character :: quote
+    integer :: k
+    plain = line
+    quote = ' '
+    do k = 1, len(line)
+      if (quote /= ' ') then
+        if (line(k:k) == quote) quote = ' '
+        plain(k:k) = ' '
+      else if (line(k:k) == '"' .or. line(k:k) == "'") then
+        quote = line(k:k)
+        plain(k:k) = ' '
+      else if (line(k:k) == '!') then
+        plain(k:) = ' '
+        exit
+      end if
+    end do
+  end function unquoted
 
   pure logical function has_group(lines, group)
     character(len=*), intent(in) :: lines(:), group

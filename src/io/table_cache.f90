@@ -21,7 +21,7 @@ module beadmob_table_cache
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_hdf5_support, only: write_attribute, read_text_attribute, read_int_attribute, quiet_hdf5
+  use beadmob_hdf5_support, only: write_attribute, read_text_attribute, read_int_attribute
   implicit none
   private
   public :: cache_key_t, read_cached_blocks, write_cached_blocks, read_cached_lubrication, write_cached_lubrication
@@ -68,7 +68,6 @@ contains
     logical :: found
 
     allocate (displacements(3, 0), blocks(block_size, block_size, 0))
-    call quiet_hdf5(.true.)
     call open_entry(path, 'blocks', key, file_id, entry, found, err)
     if (found .and. .not. err%failed) then
       n = -1
@@ -105,7 +104,6 @@ contains
         call raise(err, 'entry /blocks/' // key%name // ' holds non-finite numbers')
     end if
     if (found) call h5fclose_f(file_id, status)
-    call quiet_hdf5(.false.)
     if (err%failed) then
       deallocate (displacements, blocks)
       allocate (displacements(3, 0), blocks(block_size, block_size, 0))
@@ -125,7 +123,6 @@ contains
     logical :: found
 
     allocate (distances(0), corrections(4, 0))
-    call quiet_hdf5(.true.)
     call open_entry(path, 'lubrication', key, file_id, entry, found, err)
     if (found .and. .not. err%failed) then
       n = -1
@@ -152,7 +149,6 @@ contains
       end if
     end if
     if (found) call h5fclose_f(file_id, status)
-    call quiet_hdf5(.false.)
     if (err%failed) then
       deallocate (distances, corrections)
       allocate (distances(0), corrections(4, 0))
@@ -171,7 +167,6 @@ contains
     integer :: status
 
     if (size(displacements, 2) == 0) return
-    call quiet_hdf5(.true.)
     call begin_update(path, 'blocks', key, temporary, file_id, entry, err)
     if (.not. err%failed) then
       call create_checked_dataset(entry, 'displacements', H5T_STD_I32LE, int(shape(displacements), hsize_t), dataset, err)
@@ -190,7 +185,6 @@ contains
       end if
     end if
     call finish_update(path, temporary, file_id, err)
-    call quiet_hdf5(.false.)
   end subroutine write_cached_blocks
 
   !> Replace the lubrication entry of `key` by these (n >= 1) and keep every other entry.
@@ -204,7 +198,6 @@ contains
     integer :: status
 
     if (size(distances) == 0) return
-    call quiet_hdf5(.true.)
     call begin_update(path, 'lubrication', key, temporary, file_id, entry, err)
     if (.not. err%failed) then
       call create_checked_dataset(entry, 'distances', H5T_IEEE_F64LE, [int(size(distances), hsize_t)], dataset, err)
@@ -223,7 +216,6 @@ contains
       end if
     end if
     call finish_update(path, temporary, file_id, err)
-    call quiet_hdf5(.false.)
   end subroutine write_cached_lubrication
 
   ! ---------------------------------------------------------------------------------------------

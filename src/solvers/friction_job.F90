@@ -209,11 +209,19 @@ contains
     rotation = 0.0_dp
     rotation(1:3, 1:3) = axes
     rotation(4:6, 4:6) = axes
-    result%multipole_friction = matmul(rotation, matmul(result%multipole_friction, transpose(rotation)))
-    result%friction = matmul(rotation, matmul(result%friction, transpose(rotation)))
-    result%companion_multipole_friction = matmul(rotation, matmul(result%companion_multipole_friction, &
-                                                                  transpose(rotation)))
-    result%companion_friction = matmul(rotation, matmul(result%companion_friction, transpose(rotation)))
+    result%multipole_friction = turned_back(result%multipole_friction)
+    result%friction = turned_back(result%friction)
+    result%companion_multipole_friction = turned_back(result%companion_multipole_friction)
+    result%companion_friction = turned_back(result%companion_friction)
+
+  contains
+
+    !> R zeta' R^T: a friction of the body frame in the model's coordinates.
+    pure function turned_back(body_friction) result(friction)
+      real(dp), intent(in) :: body_friction(6, 6)
+      real(dp) :: friction(6, 6)
+      friction = matmul(rotation, matmul(body_friction, transpose(rotation)))
+    end function turned_back
   end subroutine solve_frame
 
   !> Collective. The solves of the six motions in the model's coordinates (lab_solves) and in the

@@ -24,17 +24,22 @@ contains
     hash_uniform = real(z, dp) / real(modulus, dp)
   end function hash_uniform
 
-  !> Entries in (-1/2, 1/2) from the global index and the stream number only.
-  subroutine fill_random(v, stream)
+  !> Entries in (-1/2, 1/2) from the global index, the stream number and `offset` (default 0:
+  !> another offset, another family of streams) only.
+  subroutine fill_random(v, stream, offset)
     Vec, intent(inout) :: v
     integer, intent(in) :: stream
+    integer(i8), intent(in), optional :: offset
     PetscScalar, pointer :: values(:)
     PetscInt :: start, finish, k
     PetscErrorCode :: ierr
+    integer(i8) :: shift
+    shift = 0
+    if (present(offset)) shift = offset
     PetscCallA(VecGetOwnershipRange(v, start, finish, ierr))
     PetscCallA(VecGetArrayF90(v, values, ierr))
     do k = start, finish - 1
-      values(k - start + 1) = hash_uniform(int(k, i8) * 7919_i8 + stream * 104729_i8) - 0.5_dp
+      values(k - start + 1) = hash_uniform(int(k, i8) * 7919_i8 + stream * 104729_i8 + shift) - 0.5_dp
     end do
     PetscCallA(VecRestoreArrayF90(v, values, ierr))
   end subroutine fill_random

@@ -1,0 +1,240 @@
+!> beadmob's command line: its own options in one table (name, argument, help), from which the
+!> usage text is written and a misspelt beadmob option is refused before anything runs; after a
+!> run, the options that nothing used (PETSc's or beadmob's) are named in a warning.
+module beadmob_command_line
+#include "petsc/finclude/petscsys.h"
+  use petscsys
+  use, intrinsic :: iso_c_binding, only: c_ptr, c_int, c_int64_t, c_char, c_null_ptr, c_f_pointer, c_associated
+  use, intrinsic :: iso_fortran_env, only: error_unit
+  use beadmob_errors, only: error_t, raise
+  implicit none
+  private
+  public :: print_usage, check_command_line, warn_unused_options, input_argument, option_given
+
+#if defined(PETSC_USE_64BIT_INDICES)
+  integer, parameter :: c_petsc_int = c_int64_t
+#else
+  integer, parameter :: c_petsc_int = c_int
+#endif
+
+  type :: option_t
+    character(len=20) :: name       ! without the leading '-'
+    character(len=22) :: argument   ! '' for a switch
+    character(len=160) :: help
+  end type option_t
+
+  !> Every option beadmob reads itself (PetscOptionsGet* in driver/ and solvers/).
+  type(option_t), parameter :: options(14) = [ &
+    option_t('operator', 'direct|fft|pfft|auto', 'the bead operator (default auto: the faster one for the job)'), &
+    option_t('pfft_near_radius', 'R', 'off-lattice far field: pairs within R (d) exact (default 3)'), &
+    option_t('pfft_stencil', 'S', 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
+    option_t('fft_planner', 'measure|estimate', 'FFTW plans: measured (default, faster) or reproducible'), &
+    option_t('near_field_radius', 'R', 'pairs within R (d) in the preconditioning matrix (default 0)'), &
+    option_t('near_field_cluster', 'C', 'and pairs within the same C x C x C cube of lattice cells'), &
+    option_t('geometry_only', '', 'build and check the bead model, skip &hydrodynamics'), &
+    option_t('estimate', '', 'dry run (also --estimate): bead count, unknowns, FFT box, memory per rank and ' // &
+             'expected time of the job, nothing built'), &
+    option_t('estimate_ranks', 'P', 'the estimate for P ranks (default: the ranks of the run)'), &
+    option_t('quiet', '', 'no progress lines (also &run progress = .false.)'), &
+    option_t('memory_limit', 'G', 'GiB a rank may use (default: what the node has available, shared by its ' // &
+             'ranks); a job estimated above it is refused'), &
+    option_t('accuracy', 'E', '(or --accuracy E) the cheapest settings that the benchmark data say reach a ' // &
+             'relative error E of the mobility coefficients (bench/accuracy.md)'), &
+    option_t('stop_after_solves', 'K', 'stop with an error once K solves are saved (a test of checkpoint ' // &
+             'and resume)'), &
+    option_t('hdf5_error_stack', '', 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
+  !> Options written with two dashes that beadmob takes (--help, -h and --version are read first).
+  character(len=*), parameter :: long_options(2) = [character(len=8) :: 'estimate', 'accuracy']
+
+  interface
+    integer(c_int) function petsc_options_left_get(petsc_options, n, names, values) &
+        bind(c, name='PetscOptionsLeftGet')
+      import :: c_int, c_ptr, c_petsc_int
+      type(c_ptr), value :: petsc_options
+      integer(c_petsc_int), intent(out) :: n
+      type(c_ptr), intent(out) :: names
+      type(c_ptr), value :: values
+    end function petsc_options_left_get
+    integer(c_int) function petsc_options_left_restore(petsc_options, n, names, values) &
+        bind(c, name='PetscOptionsLeftRestore')
+      import :: c_int, c_ptr, c_petsc_int
+      type(c_ptr), value :: petsc_options
+      integer(c_petsc_int), intent(inout) :: n
+      type(c_ptr), intent(inout) :: names
+      type(c_ptr), value :: values
+    end function petsc_options_left_restore
+    pure integer(c_int) function c_strlen(text) bind(c, name='strlen')
+      import :: c_int, c_ptr
+      type(c_ptr), value :: text
+    end function c_strlen
+  end interface
+
+contains
+
+  subroutine print_usage()
+    integer :: k
+    write (*, '(a)') 'usage: beadmob [--estimate] [INPUT.nml] [options]', &
+      '       mpirun -n P beadmob [INPUT.nml] [options]', &
+      '', &
+      'Builds the bead model described by INPUT.nml (Fortran namelists &run, &shape and, for the', &
+      'friction and mobility, &hydrodynamics; see README.md) and writes the result file named by', &
+      '&run output. Without INPUT.nml: the built-in default job, the paper''s cone and its mobility', &
+      'at multipole order 2, written to beadmob_result.h5.', &
+      '', &
+      'Options of beadmob (after INPUT.nml; a misspelt one is refused):'
+    do k = 1, size(options)
+      call print_option(options(k))
+    end do
+    write (*, '(a)') 'PETSc options (-log_view, -ksp_type, -ksp_rtol, -pc_type, ...) are passed to PETSc; an option', &
+      'that nothing used is named in a warning at the end of the run.'
+  end subroutine print_usage
+
+  !> '  -name ARG' in a column of 30, the help wrapped beside it.
+  subroutine print_option(option)
+    type(option_t), intent(in) :: option
+    integer, parameter :: column = 31, width = 100
+    character(len=:), allocatable :: head, rest
+    integer :: cut
+    head = '  -' // trim(option%name)
+    if (len_trim(option%argument) > 0) head = head // ' ' // trim(option%argument)
+    rest = trim(option%help)
+    if (len(head) >= column - 1) then
+      write (*, '(a)') head
+      head = ''
+    end if
+    do while (len(rest) > 0)
+      cut = len(rest)
+      if (cut > width - column) cut = index(rest(1:width - column + 1), ' ', back=.true.) - 1
+      write (*, '(a)') head // repeat(' ', column - 1 - len(head)) // rest(1:cut)
+      head = ''
+      rest = adjustl(rest(cut + 1:))
+      rest = trim(rest)
+    end do
+  end subroutine print_option
+
+  !> The input file named on the command line ('' for none): the first argument, or the second
+  !> after --estimate, unless it is an option.
+  function input_argument() result(path)
+    character(len=:), allocatable :: path
+    character(len=4096) :: argument
+    argument = ''
+    if (command_argument_count() >= 1) then
+      call get_command_argument(1, argument)
+      if (argument == '--estimate' .and. command_argument_count() >= 2) call get_command_argument(2, argument)
+      if (argument(1:1) == '-') argument = ''
+    end if
+    path = trim(argument)
+  end function input_argument
+
+  !> Every argument that is an option but not one of beadmob's is PETSc's, unless it is so close
+  !> to one of beadmob's that it is a misspelling of it: then an error that names both, before
+  !> anything runs (a misspelt PETSc option is caught by warn_unused_options at the end).
+  subroutine check_command_line(err)
+    type(error_t), intent(inout) :: err
+    character(len=256) :: argument
+    character(len=:), allocatable :: name
+    integer :: k, nearest, dashes
+    do k = 1, command_argument_count()
+      call get_command_argument(k, argument)
+      if (argument(1:1) /= '-' .or. len_trim(argument) < 2) cycle
+      if (verify(argument(2:2), '0123456789.') == 0) cycle   ! a negative number: an option's value
+      dashes = merge(2, 1, argument(2:2) == '-')
+      name = trim(argument(dashes + 1:))
+      if (index(name, '=') > 0) name = name(1:index(name, '=') - 1)
+      if (dashes == 2 .and. any(long_options == name)) cycle
+      if (dashes == 1 .and. any(options%name == name)) cycle
+      nearest = nearest_option(name)
+      if (nearest > 0) then
+        call raise(err, "unknown option '" // trim(argument) // "': did you mean -" // trim(options(nearest)%name) // &
+                   '? (beadmob --help lists the options)')
+        return
+      end if
+    end do
+  end subroutine check_command_line
+
+  !> Whether the switch -name is on the command line (read through PETSc, which marks it used).
+  logical function option_given(name)
+    character(len=*), intent(in) :: name
+    PetscBool :: found
+    PetscErrorCode :: ierr
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-' // name, found, ierr))
+    option_given = found
+  end function option_given
+
+  !> The beadmob option that `name` is a misspelling of (0: none): at most one edit (a letter
+  !> added, dropped, changed, or two swapped) for names up to 6 letters, two beyond.
+  integer function nearest_option(name)
+    character(len=*), intent(in) :: name
+    integer :: k, distance, best
+    nearest_option = 0
+    best = huge(1)
+    do k = 1, size(options)
+      distance = edit_distance(name, trim(options(k)%name))
+      if (distance < best) then
+        best = distance
+        nearest_option = k
+      end if
+    end do
+    if (best > merge(1, 2, len(name) <= 6)) nearest_option = 0
+  end function nearest_option
+
+  !> Optimal string alignment distance (Levenshtein with adjacent transpositions), '-' and '_'
+  !> counted as the same letter.
+  pure integer function edit_distance(a, b)
+    character(len=*), intent(in) :: a, b
+    integer :: d(0:len(a), 0:len(b)), i, j, cost
+    do i = 0, len(a)
+      d(i, 0) = i
+    end do
+    do j = 0, len(b)
+      d(0, j) = j
+    end do
+    do i = 1, len(a)
+      do j = 1, len(b)
+        cost = merge(0, 1, same_letter(a(i:i), b(j:j)))
+        d(i, j) = min(d(i - 1, j) + 1, d(i, j - 1) + 1, d(i - 1, j - 1) + cost)
+        if (i > 1 .and. j > 1) then
+          if (same_letter(a(i:i), b(j - 1:j - 1)) .and. same_letter(a(i - 1:i - 1), b(j:j))) &
+            d(i, j) = min(d(i, j), d(max(i - 2, 0), max(j - 2, 0)) + 1)
+        end if
+      end do
+    end do
+    edit_distance = d(len(a), len(b))
+  end function edit_distance
+
+  pure logical function same_letter(x, y)
+    character, intent(in) :: x, y
+    same_letter = x == y .or. (scan(x, '-_') > 0 .and. scan(y, '-_') > 0)
+  end function same_letter
+
+  !> Call on one rank at the end of a completed run: one warning line for every option in PETSc's
+  !> table that nothing read (PETSc's options-left mechanism), e.g. a misspelt -ksp_tyep.
+  subroutine warn_unused_options()
+    type(c_ptr) :: names
+    type(c_ptr), pointer :: name_list(:)
+    integer(c_petsc_int) :: n
+    integer :: k
+    if (petsc_options_left_get(c_null_ptr, n, names, c_null_ptr) /= 0) return
+    if (n > 0 .and. c_associated(names)) then
+      call c_f_pointer(names, name_list, [n])
+      do k = 1, int(n)
+        write (error_unit, '(a)') "beadmob: warning: option '-" // c_text(name_list(k)) // &
+          "' was given but nothing used it (misspelt? not for this job?)"
+      end do
+    end if
+    if (petsc_options_left_restore(c_null_ptr, n, names, c_null_ptr) /= 0) return
+  contains
+    function c_text(pointer) result(value)
+      type(c_ptr), intent(in) :: pointer
+      character(len=:), allocatable :: value
+      character(kind=c_char), pointer :: chars(:)
+      integer :: length, i
+      length = c_strlen(pointer)
+      call c_f_pointer(pointer, chars, [length])
+      allocate (character(len=length) :: value)
+      do i = 1, length
+        value(i:i) = chars(i)
+      end do
+    end function c_text
+  end subroutine warn_unused_options
+end module beadmob_command_line
