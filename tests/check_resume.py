@@ -9,7 +9,7 @@ In WORKDIR, with INPUT (a body whose six motions are all solved, output 'resume_
      wall-time limit): fails, leaves no result file, leaves a checkpoint holding U_x and U_y whose
      key_digest is the FNV-1a 64 of its key;
   3. the same job rerun on RESUME_RANKS ranks: resumes 2 motions (stdout and resumed_motions),
-     gives the reference friction to 1e-12 relative, and removes the checkpoint;
+     gives the reference friction within the two files' solver error bounds, and removes the checkpoint;
   4. interrupted again, then CHANGED_INPUT (same output, another Krylov tolerance): one warning,
      nothing resumed (resumed_motions all 0), the checkpoint overwritten and removed at the end;
   5. a damaged checkpoint file: one warning, nothing resumed, the run succeeds;
@@ -62,6 +62,18 @@ def hydro(path):
         return g["friction"][()], [int(x) for x in g.attrs["resumed_motions"]]
 
 
+def solver_allowance(first, second):
+    """|zeta_1 - zeta_2| that two runs may show (docs/theory.md T5): each within its file's
+    solver_error_bound b of the exact solve, on the scale sqrt(zeta_mm zeta_nn)."""
+    bounds, diagonal = 0.0, None
+    for path in (first, second):
+        with h5py.File(path, "r") as f:
+            g = f["hydrodynamics"]
+            bounds += float(g.attrs["solver_error_bound"])
+            diagonal = np.sqrt(np.diag(g["multipole_friction"][()]))
+    return bounds * np.outer(diagonal, diagonal)
+
+
 def interrupted(ranks, input_path):
     status, output = run(ranks, input_path, "-stop_after_solves", "2")
     check(status != 0, "the interrupted run fails")
@@ -111,8 +123,8 @@ def main():
     if status == 0:
         friction, resumed = hydro(OUTPUT)
         check(resumed == [1, 1, 0, 0, 0, 0], f"resumed_motions = {resumed}")
-        difference = np.abs(friction - reference).max() / np.abs(reference).max()
-        check(difference <= 1e-12, f"friction equals the uninterrupted run's: {difference:.1e} relative")
+        ratio = (np.abs(friction - reference) / solver_allowance(OUTPUT, "reference.h5")).max()
+        check(ratio <= 1, f"friction equals the uninterrupted run's within the solver bounds ({ratio:.2f} of them)")
         os.remove(OUTPUT)
 
     print("--- 4. interrupted again, then a changed input: no resume")

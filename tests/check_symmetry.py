@@ -3,8 +3,9 @@
 bead set (motion_symmetry.F90) against solving all six. The expected orbits are independent of
 the code: a filled sphere has the 48 lattice symmetries, its translations are one orbit and its
 rotations another (SOURCES 0,1,1,0,4,4); a cone about z with a four-fold axis has 8 (x <-> y:
-0,1,0,0,4,0). Both runs at -ksp_rtol 1e-10: the two frictions agree to 1e-9 (relative to the
-largest entry), every derived solution passes the true-residual check of a solved one."""
+0,1,0,0,4,0). Both runs at -ksp_rtol 1e-10: the two frictions agree within the sum of the files'
+solver error bounds (docs/theory.md T5: entry (m, n) within bound sqrt(zeta_mm zeta_nn) of the
+exact solve's), every derived solution passes the true-residual check of a solved one."""
 import sys
 
 import h5py
@@ -26,10 +27,13 @@ with h5py.File(sys.argv[1]) as a, h5py.File(sys.argv[2]) as b:
         failures.append("a derived motion was iterated")
     for key in [k for k in ("multipole_friction", "friction") if k in ga]:
         x, y = ga[key][()], gb[key][()]
-        diff = np.abs(x - y).max() / np.abs(y).max()
-        print(f"{key}: largest difference {diff:.1e}")
-        if not diff < 1e-9:
-            failures.append(f"{key} differs by {diff:.1e}")
+        diagonal = np.sqrt(np.diag(gb["multipole_friction"][()]))
+        allowed = (float(ga.attrs["solver_error_bound"]) + float(gb.attrs["solver_error_bound"])) * \
+            np.outer(diagonal, diagonal)
+        ratio = (np.abs(x - y) / allowed).max()
+        print(f"{key}: largest difference {np.abs(x - y).max():.1e}, {ratio:.2f} of the solver bounds")
+        if not ratio <= 1:
+            failures.append(f"{key} differs beyond the solver bounds ({ratio:.2f} of them)")
 for failure in failures:
     print("FAILED:", failure)
 sys.exit(1 if failures else 0)

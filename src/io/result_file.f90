@@ -195,6 +195,11 @@ contains
     call write_attribute(group, 'ksp_relative_tolerance', hydro%solves%relative_tolerance, err)
     call write_attribute(group, 'plain_symmetry_error', hydro%solves%plain_symmetry_error, err)
     call write_attribute(group, 'variational_correction', hydro%solves%variational_correction, err)
+    ! The solver's promise (theory.md T5, "Solver error bound"): |zeta_mn - zeta_mn(exact solve)|
+    ! <= solver_error_bound sqrt(zeta_mm zeta_nn), for the order-L friction and the friction.
+    call write_attribute(group, 'solve_natural_relative_residual', hydro%solves%natural_relative_residual, err)
+    call write_attribute(group, 'condition_estimate', hydro%solves%condition_estimate, err)
+    call write_attribute(group, 'solver_error_bound', hydro%solves%solver_error_bound, err)
     ! Motions not computed (solve_source -1) have no solve to converge.
     call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0 .or. &
                                                                   hydro%solves%source < 0)), err)
@@ -291,6 +296,10 @@ contains
     call write_attribute(group, 'companion_iterations', hydro%companion_solves%iterations, err)
     call write_attribute(group, 'companion_converged_reason', hydro%companion_solves%converged_reason, err)
     call write_attribute(group, 'companion_true_relative_residual', hydro%companion_solves%true_relative_residual, err)
+    call write_attribute(group, 'companion_natural_relative_residual', &
+                         hydro%companion_solves%natural_relative_residual, err)
+    call write_attribute(group, 'companion_condition_estimate', hydro%companion_solves%condition_estimate, err)
+    call write_attribute(group, 'companion_solver_error_bound', hydro%companion_solves%solver_error_bound, err)
     call write_replicated_dataset(ctx, group, 'companion_friction', transpose(hydro%companion_friction), err)
     call write_replicated_dataset(ctx, group, 'companion_body_mobility', transpose(e%companion_mobility), err)
     call write_replicated_dataset(ctx, group, 'companion_coefficients', e%companion_coefficients, err)

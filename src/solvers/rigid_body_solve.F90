@@ -53,6 +53,16 @@ module beadmob_rigid_body_solve
     real(dp) :: variational_correction = 0.0_dp
     !> 1: the motion's solution was loaded from the checkpoint instead of solved
     integer :: resumed(6) = 0
+    !> sqrt(r^T M r / c^T M c) of each computed motion, M the preconditioner (-1: not computed)
+    real(dp) :: natural_relative_residual(6) = -1.0_dp
+    !> lambda_max / lambda_min of the preconditioned operator M A from the Lanczos coefficients
+    !> of the CG solves (largest over this call's solves; a lower bound of the true ratio,
+    !> close after the iterations a solve takes); 0 when nothing was solved here
+    real(dp) :: condition_estimate = 0.0_dp
+    !> What the solver error of the friction is at most (theory.md T5, "Solver error bound"):
+    !> |zeta_mn - zeta_mn(exact solve)| <= bound sqrt(zeta_mm zeta_nn) between computed motions
+    !> (-1: no bound, see solver_error_bound)
+    real(dp) :: solver_error_bound = -1.0_dp
   end type solve_statistics_t
 
   !> How the solves report and save (friction_job.F90 fills it from its settings).
@@ -123,16 +133,16 @@ contains
     real(dp), target :: no_columns(size(projection, 1), 0)
     KSP :: ksp
     PC :: pc
-    Vec :: template
+    Vec :: template, preconditioned
     Vec, allocatable :: rhs(:), solution(:), residual(:)
     PetscErrorCode :: ierr
     PetscScalar, pointer :: values(:)
-    PetscReal :: rhs_norm, residual_norm, rtol, abstol, dtol
+    PetscReal :: rhs_norm, residual_norm, rtol, abstol, dtol, largest_value, smallest_value
     PetscInt :: iterations, max_iterations
     KSPConvergedReason :: reason
     KSPType :: ksp_type
     PCType :: pc_type
-    real(dp) :: arm(3), plain(6, 6), correction(6, 6)
+    real(dp) :: arm(3), plain(6, 6), correction(6, 6), residual_square, rhs_square
     integer(i8) :: i, bead, n_total
     integer :: motion, other, nb
 
@@ -161,11 +171,16 @@ contains
     end if
     PetscCallA(KSPSetTolerances(ksp, relative_tolerance, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     PetscCallA(KSPSetFromOptions(ksp, ierr))
+    ! The Lanczos coefficients that CG has anyway give the spectrum's ends (the error bound).
+    PetscCallA(KSPSetComputeSingularValues(ksp, PETSC_TRUE, ierr))
+    ! The preconditioner set up now: the bound applies it to resumed and derived motions too.
+    PetscCallA(KSPSetUp(ksp, ierr))
     if (present(initial_guess)) then
       PetscCallA(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE, ierr))
     end if
     PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
     allocate (rhs(6), solution(6), residual(6))
+    PetscCallA(VecDuplicate(template, preconditioned, ierr))
     do motion = 1, 6
       PetscCallA(VecDuplicate(template, rhs(motion), ierr))
       PetscCallA(VecDuplicate(template, solution(motion), ierr))
@@ -253,6 +268,9 @@ contains
         PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
         PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
         PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
+        PetscCallA(KSPComputeExtremeSingularValues(ksp, largest_value, smallest_value, ierr))
+        if (smallest_value > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, &
+                                                                    largest_value / smallest_value)
         call true_residual(motion)
         saved(motion) = saved_solve_t(int(iterations), int(reason), stats%true_relative_residual(motion))
         ! Saved at once: a kill from here on loses nothing of this solve.
@@ -301,6 +319,7 @@ contains
     friction = plain + correction
     stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
     stats%variational_correction = maxval(abs(correction)) / maxval(abs(friction))
+    stats%solver_error_bound = solver_error_bound(stats, n_total * nb)
 
     PetscCallA(KSPGetType(ksp, ksp_type, ierr))
     PetscCallA(PCGetType(pc, pc_type, ierr))
@@ -323,7 +342,20 @@ contains
       PetscCallA(VecNorm(residual(m), NORM_2, residual_norm, ierr))
       PetscCallA(VecNorm(rhs(m), NORM_2, rhs_norm, ierr))
       stats%true_relative_residual(m) = residual_norm / rhs_norm
+      residual_square = preconditioned_square(residual(m))
+      rhs_square = preconditioned_square(rhs(m))
+      stats%natural_relative_residual(m) = -1.0_dp   ! a preconditioner that is not SPD: none
+      if (residual_square >= 0.0_dp .and. rhs_square > 0.0_dp) &
+        stats%natural_relative_residual(m) = sqrt(residual_square / rhs_square)
     end subroutine true_residual
+
+    !> v^T M v, M the preconditioner (positive for CG's SPD preconditioners).
+    real(dp) function preconditioned_square(v)
+      Vec, intent(in) :: v
+      PetscCallA(KSPGetPC(ksp, pc, ierr))
+      PetscCallA(PCApply(pc, v, preconditioned, ierr))
+      PetscCallA(VecDot(v, preconditioned, preconditioned_square, ierr))
+    end function preconditioned_square
 
     !> The motions of a checkpoint with this run's key into `solution` (loaded). Another key or
     !> an unreadable file: one warning line, nothing loaded, and the file is overwritten by the
@@ -415,9 +447,31 @@ contains
         PetscCallA(VecDestroy(residual(m), ierr))
       end do
       PetscCallA(VecDestroy(template, ierr))
+      PetscCallA(VecDestroy(preconditioned, ierr))
       PetscCallA(KSPDestroy(ksp, ierr))
     end subroutine release
   end subroutine rigid_body_friction
+
+  !> The solver error bound of the variational friction (theory.md T5): with e_m the error of
+  !> solution m and r_m its residual, zeta_mn - zeta_mn(exact) = -e_m^T A e_n = -r_m^T A^-1 r_n, so
+  !> |error_mn| <= ||r_m||_{A^-1} ||r_n||_{A^-1}, and zeta_mm = ||c_m||^2_{A^-1}. In the norms of the
+  !> preconditioner M, ||r||^2_{A^-1} <= r^T M r / lambda_min(M A) and ||c||^2_{A^-1} >= c^T M c /
+  !> lambda_max(M A): the relative error on the scale sqrt(zeta_mm zeta_nn) is at most eta_m eta_n
+  !> kappa(M A), eta the natural relative residuals. Rounding adds about kappa sqrt(n) eps (dot
+  !> products of n unknowns through a solve of that condition), the floor of the bound.
+  !> -1 (no bound) when no solve here gave a Lanczos estimate of kappa (a Krylov method other
+  !> than CG, or every motion resumed or derived) or the preconditioner is not SPD.
+  function solver_error_bound(stats, n_unknowns) result(bound)
+    type(solve_statistics_t), intent(in) :: stats
+    integer(i8), intent(in) :: n_unknowns
+    real(dp) :: bound, largest_residual
+    bound = -1.0_dp
+    if (.not. stats%condition_estimate >= 1.0_dp) return
+    if (.not. all(ieee_is_finite(stats%natural_relative_residual))) return
+    if (any(stats%natural_relative_residual < 0.0_dp .and. stats%source >= 0)) return
+    largest_residual = maxval(stats%natural_relative_residual, mask=stats%source >= 0)
+    bound = stats%condition_estimate * max(largest_residual**2, sqrt(real(n_unknowns, dp)) * epsilon(1.0_dp))
+  end function solver_error_bound
 
   !> Whether a resumed solution's true residual is the one it was saved with (rounding aside); a
   !> non-finite one never is (tested first: an ordered comparison with NaN would trap in Debug).

@@ -9,9 +9,12 @@
 
 The references are results of beadmob itself, so they guard against unintended change, not
 against error: accuracy is tested elsewhere against exact formulas and the paper. The runs use
--ksp_rtol 1e-6 and -fft_planner estimate: the friction is variational, its solver error ~1e-11 at
-that tolerance (bench/solver_tolerance.md), and rounding differences from run to run or between
-machines stay far below the 1e-8 tolerance."""
+-ksp_rtol 1e-6 and -fft_planner estimate. Each run is within its own solver error bound b of the
+exact solve (docs/theory.md T5, recorded in the file as solver_error_bound, ~1e-10 here), so a
+run and the reference may differ by about 2b in the frictions and by the inverse's amplification
+of it in the coefficients (tests/compare_result_files.py): the check allows the larger of 1e-8
+and that promise, so the solver's freedom on another CPU never fails it, and a change of the
+code beyond both does."""
 import json
 import subprocess
 import sys
@@ -28,10 +31,19 @@ QUANTITIES = ("friction", "multipole_friction", "coefficients")
 TOLERANCE = 1e-8
 
 
+def promised(values, bound):
+    """Relative (to the largest entry) change two runs within bound b of the exact solve may show."""
+    zeta = values["multipole_friction"]
+    friction = 2 * bound * np.sqrt(np.outer(np.diag(zeta), np.diag(zeta))).max() / np.abs(zeta).max()
+    coefficients = 1.1 * 36 * 2 * bound * np.linalg.cond(zeta)
+    return {"friction": friction, "multipole_friction": friction, "coefficients": coefficients}
+
+
 def read(path):
     with h5py.File(path) as f:
         g = f["hydrodynamics"]
         values = {q: np.asarray(g[q][()], dtype=float) for q in QUANTITIES}
+        values["solver_error_bound"] = float(g.attrs.get("solver_error_bound", 0.0))
         settings = {"multipole_order": int(g.attrs["multipole_order"]),
                     "lubrication": bool(g.attrs["lubrication"]),
                     "n_beads": int(f["geometry"].attrs["n_beads"])}
@@ -62,12 +74,14 @@ def check(case, path):
     for key, value in settings.items():
         if expected[key] != value:
             failures.append(f"{key}: {value} (reference {expected[key]})")
+    promise = promised(values, values["solver_error_bound"])
     for q in QUANTITIES:
         ref = np.asarray(expected[q])
         change = np.max(np.abs(values[q] - ref)) / np.max(np.abs(ref))
-        print(f"{case} {q}: largest change {change:.1e} (relative to max |reference|)")
-        if not change <= TOLERANCE:   # also catches NaN
-            failures.append(f"{q} moved by {change:.1e} > {TOLERANCE:g}")
+        allowed = max(TOLERANCE, promise[q])
+        print(f"{case} {q}: largest change {change:.1e} (relative to max |reference|; allowed {allowed:.1e})")
+        if not change <= allowed:   # also catches NaN
+            failures.append(f"{q} moved by {change:.1e} > {allowed:.1e}")
     if failures:
         print(f"regression: {case} differs from the references made by {reference['made_by_commit']}: "
               + "; ".join(failures))

@@ -52,6 +52,14 @@ def close(actual, expected, rtol, what):
                   f"{what}: {actual:.10g}, expected {expected:.10g} within {rtol:g} relative")
 
 
+def solver_margin(run, i, j, runs=1):
+    """What the solver error may make of entry (i, j): the file's own bound on the variational
+    friction (docs/theory.md T5, "Solver error bound") on the scale sqrt(zeta_ii zeta_jj) of the
+    order-L friction, once per run whose entry enters the comparison."""
+    zeta = run["multipole_friction"]
+    return runs * float(run["attrs"]["solver_error_bound"]) * math.sqrt(abs(zeta[i, i] * zeta[j, j]))
+
+
 def load(path):
     """friction, multipole_friction, the /hydrodynamics attributes and the positions of a file."""
     with h5py.File(path, "r") as f:
@@ -169,7 +177,8 @@ def check_slender(paths):
               f"D(N) = {d:.5f}")
         expect(0.5 < ratio < 1.0, f"N = {n}: axial/transverse friction ratio {ratio:.5f} outside (1/2, 1)")
         expect(abs(d - 1) < (0.01 if n >= 1000 else 0.03), f"N = {n}: slender-body D(N) = {d:.5f}, expected 1")
-        close(zeta[2, 2], perp, 1e-5, f"N = {n}: transverse friction y = z (axial symmetry)")
+        expect(abs(zeta[2, 2] - perp) <= solver_margin(run, 1, 2, runs=2),
+               f"N = {n}: transverse friction y = z (axial symmetry) beyond the solver bound")
         if previous is not None:
             p_n, p_par, p_ratio = previous
             expect(par / n < p_par, f"axial friction per bead does not decrease from N = {p_n} to {n}")
@@ -262,10 +271,15 @@ def check_far(origin, paths):
         expect(np.abs(run["positions"] - ref["positions"] - shift).max() < 1e-9,
                f"{path}: not a rigid shift of {origin}")
         expect(run["attrs"]["on_lattice"] == ref["attrs"]["on_lattice"], f"{path}: on_lattice differs from {origin}")
+        # Each run within its solver bound of its exact solve; the relative bead positions agree to
+        # 1e-9 (checked above), which moves the exact friction by as much relatively (x10).
+        allowed = np.array([[solver_margin(run, i, j) + solver_margin(ref, i, j) for j in range(6)]
+                            for i in range(6)]) + 1e-8 * np.abs(ref["friction"]).max()
         for name in ("friction", "multipole_friction"):
-            rel = np.abs(run[name] - ref[name]).max() / np.abs(ref[name]).max()
-            print(f"{path}: shift {shift}, on_lattice {run['attrs']['on_lattice']}, {name} relative change {rel:.2e}")
-            expect(rel < 1e-6, f"{path}: {name} changes by {rel:.3g} under the shift {shift}")
+            change = np.abs(run[name] - ref[name])
+            print(f"{path}: shift {shift}, on_lattice {run['attrs']['on_lattice']}, {name} largest change "
+                  f"{change.max():.2e}, {(change / allowed).max():.2f} of the promised")
+            expect(np.all(change <= allowed), f"{path}: {name} changes beyond the solver bounds under the shift {shift}")
 
 
 def check_pair_contact(path):
@@ -292,11 +306,12 @@ def check_cube(low_path, high_path):
     low, high = health(low_path), health(high_path)
     zeta = high["friction"]
     scale = np.abs(zeta).max()
-    # To the solver error: each motion is its own CG solve (default -ksp_rtol 1e-4: measured up to
-    # 1e-7 relative between equal entries, bench/README.md: ~1e-6 in the coefficients).
-    expect(np.abs(zeta[:3, :3] - zeta[0, 0] * np.eye(3)).max() < 1e-5 * scale, "translation not isotropic")
-    expect(np.abs(zeta[3:, 3:] - zeta[3, 3] * np.eye(3)).max() < 1e-5 * scale, "rotation not isotropic")
-    expect(np.abs(zeta[:3, 3:]).max() < 1e-5 * scale, "translation-rotation coupling about the centre")
+    # To the solver error: entries of different solves, each within the file's bound of the exact
+    # (isotropic, uncoupled) friction.
+    margin = np.array([[solver_margin(high, i, j, runs=2) for j in range(6)] for i in range(6)])
+    expect(np.all(np.abs(zeta[:3, :3] - zeta[0, 0] * np.eye(3)) <= margin[:3, :3]), "translation not isotropic")
+    expect(np.all(np.abs(zeta[3:, 3:] - zeta[3, 3] * np.eye(3)) <= margin[3:, 3:]), "rotation not isotropic")
+    expect(np.all(np.abs(zeta[:3, 3:]) <= margin[:3, 3:]), "translation-rotation coupling about the centre")
     gain = np.linalg.eigvalsh(zeta - low["friction"])
     print(f"L {low['attrs']['multipole_order']} -> {high['attrs']['multipole_order']}: friction gain eigenvalues "
           f"{gain}, translational friction {zeta[0, 0]:.8f}")
@@ -315,11 +330,10 @@ def check_plate(path):
     run = health(path)
     zeta = run["friction"]
     side = np.ptp(run["positions"][:, 0]) + 1
-    scale = np.abs(zeta).max()
-    # To the solver error: each motion is its own CG solve (default -ksp_rtol 1e-4: measured up to
-    # 1e-7 relative between equal entries, bench/README.md: ~1e-6 in the coefficients).
-    close(zeta[1, 1], zeta[0, 0], 1e-5, "square plate: friction along x = along y")
-    expect(np.abs(zeta[:3, 3:]).max() < 1e-5 * scale, "translation-rotation coupling about the centre")
+    # To the solver error: entries of different solves, each within the file's bound of the exact.
+    margin = np.array([[solver_margin(run, i, j, runs=2) for j in range(6)] for i in range(6)])
+    expect(abs(zeta[1, 1] - zeta[0, 0]) <= margin[0, 1], "square plate: friction along x = along y")
+    expect(np.all(np.abs(zeta[:3, 3:]) <= margin[:3, 3:]), "translation-rotation coupling about the centre")
     edge, broad = zeta[0, 0], zeta[2, 2]
     average = (2 * edge + broad) / 3
     capacitance = 6 * PI * 0.3667874 * side
