@@ -13,7 +13,7 @@ module beadmob_job_planning
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_resources, only: available_memory_bytes, online_processors
-  use beadmob_block_table, only: on_unit_lattice
+  use beadmob_unit_lattice, only: on_unit_lattice
   use beadmob_shell_model, only: shell_mask
   use beadmob_multipole_basis, only: basis_size
   use beadmob_friction_job, only: friction_settings_t, choose_operator, choose_solve_frame

@@ -24,7 +24,7 @@ module beadmob_run
   use beadmob_error_estimate, only: estimate_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
-  use beadmob_block_table, only: on_unit_lattice
+  use beadmob_unit_lattice, only: on_unit_lattice
   use beadmob_job_planning, only: plan_friction_job, dry_run_requested
   implicit none
   private

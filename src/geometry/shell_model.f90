@@ -17,7 +17,7 @@ module beadmob_shell_model
 contains
 
   !> depth(i) = the layer of bead i (1 = on the surface). The beads must lie on the unit lattice
-  !> (checked by the caller: beadmob_block_table on_unit_lattice).
+  !> (checked by the caller: beadmob_unit_lattice on_unit_lattice).
   subroutine surface_depth(centres, depth)
     real(dp), intent(in) :: centres(:, :)
     integer, allocatable, intent(out) :: depth(:)

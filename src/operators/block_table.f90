@@ -20,13 +20,12 @@ module beadmob_block_table
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
   use beadmob_table_cache, only: cache_key_t, read_cached_blocks, write_cached_blocks, warn_cache
+  use beadmob_unit_lattice, only: lattice_tolerance
   implicit none
   private
-  public :: block_table_t, make_block_table, table_block_index, lattice_tolerance, on_unit_lattice, block_cache_key
+  public :: block_table_t, make_block_table, table_block_index, block_cache_key
   public :: block_formula_version, lattice_block, lattice_block_entries, canonical_count
 
-  !> Beads are on the lattice when every centre is within this distance (d) of a lattice point.
-  real(dp), parameter :: lattice_tolerance = 1.0e-9_dp
   !> Largest block store allowed per rank (bytes) before refusing an off-lattice model.
   real(dp), parameter :: max_store_bytes = 8.0e9_dp
   !> Part of the cache key of the blocks: bump it whenever pair_block, its quadrature or the
@@ -71,21 +70,6 @@ contains
     table_block_index = 1 + (displacement(1) + table%span(1)) + width(1) * ((displacement(2) + table%span(2)) &
                         + width(2) * (displacement(3) + table%span(3)))
   end function table_block_index
-
-  !> True when every centre is within lattice_tolerance of the unit lattice through the lowest corner.
-  pure logical function on_unit_lattice(centres)
-    real(dp), intent(in) :: centres(:, :)
-    real(dp) :: corner(3)
-    integer :: i
-    corner = minval(centres, dim=2)
-    on_unit_lattice = .true.
-    do i = 1, size(centres, 2)
-      if (any(abs(centres(:, i) - corner - anint(centres(:, i) - corner)) > lattice_tolerance)) then
-        on_unit_lattice = .false.
-        return
-      end if
-    end do
-  end function on_unit_lattice
 
   !> The cache key of the blocks of `basis`: everything they depend on.
   function block_cache_key(basis) result(key)

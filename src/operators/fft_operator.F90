@@ -41,7 +41,8 @@ module beadmob_fft_operator
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
-  use beadmob_block_table, only: block_table_t, make_block_table, lattice_tolerance, lattice_block, lattice_block_entries
+  use beadmob_block_table, only: block_table_t, make_block_table, lattice_block, lattice_block_entries
+  use beadmob_unit_lattice, only: lattice_tolerance
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, fill_seconds, &
                                    fft_seconds, multiply_seconds, transpose_fraction, transform_bytes

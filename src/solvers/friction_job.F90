@@ -14,7 +14,7 @@ module beadmob_friction_job
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_catalog, only: new_operator
   use beadmob_fft_operator, only: fft_size
-  use beadmob_block_table, only: on_unit_lattice
+  use beadmob_unit_lattice, only: on_unit_lattice
   use beadmob_dense_operator, only: dense_max_unknowns
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner

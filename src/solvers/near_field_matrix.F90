@@ -14,7 +14,7 @@ module beadmob_near_field_matrix
   use beadmob_kinds, only: dp, i8
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: pair_block
-  use beadmob_block_table, only: on_unit_lattice
+  use beadmob_unit_lattice, only: on_unit_lattice
   implicit none
   private
   public :: assemble_near_field
