@@ -1,7 +1,9 @@
 """Numbers from the settlers paper, kept as data with their source.
 
-Source: the paper in ``../shared/paper/settlers-paper.tex`` ("settlers": cones, arrowheads,
-crescent moons, open rings settling in silicone oil). Each constant names the table or section
+Source: C. Shekhar, H. N. Mirajkar, P. Zdybel, Y. Melikhov and M. L. Ekiel-Jeżewska, "Sedimenting
+rigid particles of certain shapes approach a stationary orientation" (IPPT PAN, Warsaw; data:
+RepOD, https://doi.org/10.18150/MIL6UG), the "settlers" paper: cones, arrowheads, crescent
+moons, open rings settling in silicone oil. Each constant names the table or section
 it is copied from; the values are typed in exactly as printed there (same rounding).
 """
 
@@ -9,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-CITATION = "settlers paper (shared/paper/settlers-paper.tex)"
+CITATION = "settlers paper (Shekhar et al., IPPT PAN; data https://doi.org/10.18150/MIL6UG)"
 
 #: The five dimensionless coefficients of eq. `matrices`, in the paper's order.
 COEFFICIENT_NAMES = ("mu11", "mu22", "mu33", "mu42", "mu51")
