@@ -5,7 +5,7 @@ module beadmob_command_line
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use, intrinsic :: iso_c_binding, only: c_ptr, c_int, c_int64_t, c_char, c_null_ptr, c_f_pointer, c_associated
-  use, intrinsic :: iso_fortran_env, only: error_unit
+  use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
   use beadmob_errors, only: error_t, raise
   implicit none
   private
@@ -215,6 +215,7 @@ contains
     integer(c_petsc_int) :: n
     integer :: k
     if (petsc_options_left_get(c_null_ptr, n, names, c_null_ptr) /= 0) return
+    flush (output_unit)   ! after the run's summary, where a terminal shows both streams
     if (n > 0 .and. c_associated(names)) then
       call c_f_pointer(names, name_list, [n])
       do k = 1, int(n)
