@@ -22,7 +22,8 @@ program operator_check
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
-  use beadmob_friction_job, only: friction_settings_t, operator_option, choose_operator
+  use beadmob_friction_settings, only: friction_settings_t, operator_option
+  use beadmob_job_plan, only: choose_operator
   use beadmob_random_vectors, only: fill_random
   implicit none
 
@@ -145,7 +146,7 @@ program operator_check
     difference(v) = difference(v) / max(reference, tiny(1.0_dp))
   end do
 
-  ! The work estimates of choose_operator (friction_job.F90), for comparison with the timings.
+  ! The work estimates of choose_operator (job_plan.f90), for comparison with the timings.
   call choose_operator('auto', model%centres, basis%size, chosen, err)
   sites = 1.0_dp
   do axis = 1, 3

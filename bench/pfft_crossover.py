@@ -88,7 +88,7 @@ def main():
              "to 0.04 d; `shell`: beads on a sphere's surface), default settings (L = 2 with the error bar). "
              f"Run: `mpiexec` to exit, median of {args.repeats} repetitions, each running both operators in turn. "
              "Estimate: the dry run's expected wall time (`-estimate`), the cost model that `-operator auto` "
-             "compares for an off-lattice model (src/solvers/friction_job.F90, choose_operator).", "",
+             "compares for an off-lattice model (src/solvers/job_plan.f90, choose_operator).", "",
              "| model | beads | direct run | pfft run | direct / pfft | faster | direct estimate | pfft estimate "
              "| auto picks | auto picks the faster |",
              "|---|---|---|---|---|---|---|---|---|---|"] + rows

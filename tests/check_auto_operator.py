@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """check_auto_operator.py BEADMOB MPIEXEC RANKS WORKDIR: `-operator auto` on an off-lattice model
 picks the operator whose estimated wall time (the dry run's cost model, `-estimate`) is the
-smaller of the direct and the pfft operator's (friction_job.F90, choose_operator), and the dry run
+smaller of the direct and the pfft operator's (job_plan.f90, choose_operator), and the dry run
 names it. Models: balls of lattice points scaled by 1.1 and jittered by up to 0.04 d (seed 7) of
 123 beads (the direct operator, measured faster at 100: bench/pfft_crossover.md) and 1419
 beads (pfft, measured 4-7x faster at 1000-1500 beads there); only dry runs, nothing is solved."""

@@ -13,12 +13,9 @@ module beadmob_job_planning
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_resources, only: available_memory_bytes, online_processors
-  use beadmob_unit_lattice, only: on_unit_lattice
-  use beadmob_shell_model, only: shell_mask
-  use beadmob_multipole_basis, only: basis_size
-  use beadmob_friction_job, only: friction_settings_t, choose_operator, choose_solve_frame
-  use beadmob_job_estimate, only: job_estimate_t, estimate_job
-  use beadmob_motion_symmetry, only: solves_needed
+  use beadmob_friction_settings, only: friction_settings_t
+  use beadmob_job_plan, only: job_plan_t, make_job_plan
+  use beadmob_job_estimate, only: job_estimate_t
   use beadmob_progress, only: progress_line
   implicit none
   private
@@ -28,22 +25,20 @@ module beadmob_job_planning
 
 contains
 
-  !> Collective. The estimate of the friction job of `centres` with `settings`; with -estimate it
-  !> is printed (rank 0) and dry_run is set: the caller stops there. Otherwise a job whose peak
-  !> memory per rank exceeds the memory available to a rank is refused (err on every rank).
-  subroutine plan_friction_job(ctx, settings, centres, dry_run, err)
+  !> Collective. The plan of the friction job of `centres` with `settings` (job_plan.f90), for the
+  !> ranks of the run or -estimate_ranks P; with -estimate it is printed (rank 0) and dry_run is
+  !> set: the caller stops there. Otherwise a job whose peak memory per rank exceeds the memory
+  !> available to a rank is refused (err on every rank).
+  subroutine plan_friction_job(ctx, settings, centres, plan, dry_run, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :)
+    type(job_plan_t), intent(out) :: plan
     logical, intent(out) :: dry_run
     type(error_t), intent(inout) :: err
-    type(job_estimate_t) :: estimate
-    logical, allocatable :: keep(:)
-    logical :: on_lattice, ranks_given, limit_given
-    integer :: ranks, spans(3), i, n_solves
-    integer(i8) :: solve_beads
+    logical :: ranks_given, limit_given
+    integer :: ranks
     real(dp) :: limit, available, node_available, oversubscription
-    character(len=16) :: operator_name
     PetscBool :: found
     PetscInt :: ranks_option
     PetscReal :: limit_option
@@ -61,38 +56,15 @@ contains
       call raise(err, '-memory_limit must be a positive number of GiB per rank, got ' // str(real(limit_option, dp)))
     if (err%failed) return   ! the same options on every rank
 
-    ! The beads of the solve (the shell model keeps the surface layers; the same spans) and their
-    ! lattice spans.
-    on_lattice = on_unit_lattice(centres)
-    spans = 0
-    if (on_lattice) then
-      do i = 1, 3
-        spans(i) = nint(maxval(centres(i, :)) - minval(centres(i, :)))
-      end do
-    end if
-    if (settings%shell_layers > 0 .and. on_lattice) then
-      call shell_mask(centres, settings%shell_layers, keep, err)
-      if (err%failed) return   ! the same beads everywhere; friction_of_model reports it too
-      call describe_solve(centres(:, pack([(i, i = 1, size(centres, 2))], keep)))
-    else
-      call describe_solve(centres)
-    end if
-    if (err%failed) return   ! agreed on in describe_solve
-    if (operator_name == 'pfft') then
-      ! the grid of the stencils (pfft_operator.F90): the beads' extent and a stencil's width
-      do i = 1, 3
-        spans(i) = ceiling(maxval(centres(i, :)) - minval(centres(i, :))) + settings%pfft_stencil - 1
-      end do
-    end if
     ! More ranks than processors on a node share them: the times grow by that factor (the largest
     ! over the nodes). An estimate for -estimate_ranks assumes a processor per rank.
     oversubscription = real(ctx%ranks_on_node, dp) / online_processors()
     call MPI_Allreduce(MPI_IN_PLACE, oversubscription, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     if (ranks_given) oversubscription = 1.0_dp
-    estimate = estimate_job(size(centres, 2, kind=i8), solve_beads, spans, on_lattice, settings%order, &
-                            settings%potential_order, trim(operator_name), ranks, n_solves, &
-                            settings%shell_layers > 0 .and. on_lattice, oversubscription, &
-                            settings%companion .and. all(settings%motions), settings%pfft_near_radius)
+    ! The rigid motions turn about the centre of mass (as body_frame.f90 computes it).
+    call make_job_plan(ctx, settings, centres, sum(centres, dim=2) / size(centres, 2), ranks, oversubscription, &
+                       plan, err)
+    if (err%failed) return   ! the same settings and beads everywhere (agreed on inside where not)
 
     ! What a rank may use: the node's available memory shared by the ranks on it (the least over
     ! the nodes), or -memory_limit.
@@ -103,46 +75,22 @@ contains
     limit = available
     if (limit_given) limit = limit_option * gib
 
-    if (dry_run) then
-      if (ctx%rank == 0) call print_estimate(estimate, limit, limit_given, ranks_given)
-      return
-    end if
-    call progress_line(settings%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
-                       ' GiB per rank, ' // seconds_text(estimate%seconds_total) // ' (beadmob --estimate: the parts)')
-    if (estimate%peak > limit) &
-      call raise(err, 'the job needs about ' // gib_text(estimate%peak) // ' GiB per rank on ' // str(ranks) // &
-                 ' ranks (' // trim(breakdown(estimate)) // ') and would take about ' // &
-                 seconds_text(estimate%seconds_total) // ', more than the ' // gib_text(limit) // &
-                 ' GiB a rank can have' // either(limit_given, ' (-memory_limit)', ' (available on this node)') // &
-                 '; refused before allocating. Use more ranks or nodes, a smaller model or a lower ' // &
-                 'multipole_order (beadmob --estimate shows the estimate)')
-    call agree_on_error(ctx, err)
-
-  contains
-
-    !> solve_beads, the operator the job gets and, for the dry run only (a normal run's memory does
-    !> not depend on it, and the run finds the symmetries itself), the solves its symmetries leave.
-    subroutine describe_solve(solve_centres)
-      real(dp), intent(in) :: solve_centres(:, :)
-      real(dp) :: centroid(3), axes(3, 3)
-      real(dp), allocatable :: turned(:, :)
-      integer :: lab_solves, body_solves
-      solve_beads = size(solve_centres, 2, kind=i8)
-      call choose_operator(settings%operator_name, solve_centres, basis_size(settings%order, settings%potential_order), &
-                           operator_name, err, settings, max(ranks, 1))
-      if (err%failed) return   ! the same options and beads everywhere
-      n_solves = count(settings%motions)
-      if (dry_run .and. settings%use_symmetry) then
-        ! About the centroid of all beads: the reference point of the job.
-        centroid = sum(centres, dim=2) / size(centres, 2)
-        n_solves = solves_needed(ctx%comm, solve_centres, centroid, settings%motions, err)
-        call agree_on_error(ctx, err)
-        ! an off-lattice body may be solved in its body frame, with fewer solves (friction_job.F90)
-        if (.not. err%failed) call choose_solve_frame(ctx, settings, solve_centres, centroid, turned, axes, &
-                                                      lab_solves, body_solves, err)
-        if (allocated(turned)) n_solves = body_solves
+    associate (estimate => plan%estimate)
+      if (dry_run) then
+        if (ctx%rank == 0) call print_estimate(plan, limit, limit_given, ranks_given)
+        return
       end if
-    end subroutine describe_solve
+      call progress_line(settings%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
+                         ' GiB per rank, ' // seconds_text(estimate%seconds_total) // ' (beadmob --estimate: the parts)')
+      if (estimate%peak > limit) &
+        call raise(err, 'the job needs about ' // gib_text(estimate%peak) // ' GiB per rank on ' // str(ranks) // &
+                   ' ranks (' // trim(breakdown(estimate)) // ') and would take about ' // &
+                   seconds_text(estimate%seconds_total) // ', more than the ' // gib_text(limit) // &
+                   ' GiB a rank can have' // either(limit_given, ' (-memory_limit)', ' (available on this node)') // &
+                   '; refused before allocating. Use more ranks or nodes, a smaller model or a lower ' // &
+                   'multipole_order (beadmob --estimate shows the estimate)')
+    end associate
+    call agree_on_error(ctx, err)
   end subroutine plan_friction_job
 
   !> -estimate (or --estimate) is on the command line.
@@ -153,10 +101,11 @@ contains
     dry_run_requested = found
   end function dry_run_requested
 
-  subroutine print_estimate(e, limit, limit_given, ranks_given)
-    type(job_estimate_t), intent(in) :: e
+  subroutine print_estimate(plan, limit, limit_given, ranks_given)
+    type(job_plan_t), intent(in) :: plan
     real(dp), intent(in) :: limit
     logical, intent(in) :: limit_given, ranks_given
+    associate (e => plan%estimate)
     write (*, '(a)') 'beadmob: estimate for ' // str(e%n_ranks) // ' rank(s) (dry run: nothing built, no result file)'
     write (*, '(a)') '  beads:                ' // str(e%n_beads) // ' (' // str(e%solve_beads) // ' in the solve)'
     write (*, '(a)') '  unknowns:             ' // str(e%unknowns) // ' (' // str(e%unknowns_per_bead) // ' per bead)'
@@ -178,6 +127,9 @@ contains
       seconds_text(e%seconds_blocks) // ', solve ' // seconds_text(e%seconds_solve) // ': ' // str(e%n_solves) // &
       ' solve(s) of ~' // str(e%iterations) // ' CG iterations' // &
       either(e%seconds_companion > 0, ', error bar''s companion ' // seconds_text(e%seconds_companion), '') // ')'
+    if (plan%body_frame) write (*, '(a)') '  solve frame:          the body frame (' // str(plan%n_solves) // &
+      ' solves instead of ' // str(plan%lab_solves) // ' in the model''s coordinates)'
+    end associate
   end subroutine print_estimate
 
   function breakdown(e) result(text)

@@ -19,7 +19,9 @@ module beadmob_run
   use beadmob_result_file, only: write_result_file, partial_suffix
   use beadmob_file_system, only: probe_writable
   use beadmob_command_line, only: warn_unused_options
-  use beadmob_friction_job, only: friction_of_model, friction_settings_t, friction_result_t, phase_names, operator_option
+  use beadmob_friction_settings, only: friction_settings_t, operator_option
+  use beadmob_friction_job, only: friction_of_plan, friction_result_t, phase_names
+  use beadmob_job_plan, only: job_plan_t
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
   use beadmob_error_estimate, only: estimate_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
@@ -44,6 +46,7 @@ contains
     real(dp) :: companion_mobility(6, 6)
     type(friction_result_t) :: hydro
     type(friction_settings_t) :: settings
+    type(job_plan_t) :: plan
     type(accuracy_choice_t) :: choice
     logical :: geometry_only, accuracy_given, rtol_given, on_lattice, dry_run
     character(len=64) :: accuracy
@@ -96,10 +99,6 @@ contains
       ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines
       ! (the plan's estimate line too).
       settings%progress = settings%progress .and. config%progress
-      ! Know before you run: the dry run stops here, a job that cannot fit is refused here,
-      ! before the geometry checks (O(N) passes that a model far too large should not wait for).
-      call plan_friction_job(ctx, settings, model%centres, dry_run, err)
-      if (err%failed .or. dry_run) return   ! agreed on inside; a dry run writes no result file
     else if (dry_run_requested()) then
       call raise(err, '--estimate estimates the friction job: the input needs a &hydrodynamics group ' // &
                  '(and no -geometry_only)')
@@ -111,12 +110,16 @@ contains
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
+    if (config%hydrodynamics%enabled) then
+      ! Know before you run: the job's plan, made once (job_plan.f90); the dry run stops here, a
+      ! job that cannot fit is refused here, before anything large is allocated.
+      call plan_friction_job(ctx, settings, model%centres, plan, dry_run, err)
+      if (err%failed .or. dry_run) return   ! agreed on inside; a dry run writes no result file
+    end if
     ! Without a paper value, L is the size along the body x axis (paper: x along L).
     if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
 
     if (config%hydrodynamics%enabled) then
-      ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines.
-      settings%progress = settings%progress .and. config%progress
       if (config%checkpoint) then
         settings%checkpoint_file = trim(config%output) // checkpoint_suffix
         settings%checkpoint_input = effective_input_text(config, numbers_only=.true.)
@@ -145,7 +148,7 @@ contains
 
     !> The friction job with the settings as they stand, its diagnostics, mobility and error bar.
     subroutine solve_and_estimate()
-        call friction_of_model(ctx, settings, model%centres, frame%centre_of_mass, hydro, err)
+        call friction_of_plan(ctx, settings, plan, hydro, err)
         if (err%failed) return   ! agreed on inside
         ! Flagged in the file and on stderr, never hidden (docs/stress_tests.md); a non-finite
         ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
@@ -188,6 +191,7 @@ contains
     !> max_accuracy_order and the job fits in memory; the last run is the result.
     subroutine meet_accuracy_target()
       type(error_t) :: refused
+      type(job_plan_t) :: raised
       logical :: dry
       do while (hydro%estimate%available)
         choice%estimated_error = maxval(hydro%estimate%scaled_coefficient_error)
@@ -195,7 +199,7 @@ contains
         settings%order = settings%order + 1
         settings%potential_order = max(settings%order - 2, 0)
         settings%shell_layers = 0
-        call plan_friction_job(ctx, settings, model%centres, dry, refused)
+        call plan_friction_job(ctx, settings, model%centres, raised, dry, refused)
         if (refused%failed) then
           if (ctx%rank == 0) write (error_unit, '(a)') 'beadmob: warning: the accuracy target would need L = ' // &
             str(settings%order) // ', which does not fit: ' // trim(refused%message)
@@ -205,6 +209,7 @@ contains
         if (ctx%rank == 0) write (*, '(a, es8.1, a, es8.1, a)') 'beadmob: accuracy: estimated error', &
           choice%estimated_error, ' above the target', choice%target, ' at L = ' // str(settings%order - 1) // &
           '; solving again at L = ' // str(settings%order) // ' on the full model'
+        plan = raised
         config%hydrodynamics%multipole_order = settings%order
         config%hydrodynamics%potential_order = settings%potential_order
         config%hydrodynamics%shell_layers = 0

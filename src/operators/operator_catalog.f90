@@ -1,5 +1,5 @@
 !> The bead operators by name: the one place that knows every implementation of
-!> multipole_operator_t (friction_job.F90's choose_operator picks the name).
+!> multipole_operator_t (job_plan.f90's choose_operator picks the name).
 module beadmob_operator_catalog
   use beadmob_multipole_operator, only: multipole_operator_t
   use beadmob_bead_operator, only: bead_operator_t

@@ -179,9 +179,14 @@ contains
     end do
     call write_attribute(group, 'solve_motions', names, err)
     ! The motions are along these axes (columns): the identity, or the body axes of an
-    ! off-lattice body solved in its body frame (friction_job.F90, solve_frame).
+    ! off-lattice body solved in its body frame (job_plan.f90, choose_solve_frame).
     call write_replicated_dataset(ctx, group, 'solve_axes', transpose(hydro%solve_axes), err)
     call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
+    ! The plan the job ran (job_plan.f90), as the dry run prints it: its solves after symmetries
+    ! and its estimate of memory and time.
+    call write_attribute(group, 'planned_solves', hydro%planned_solves, err)
+    call write_attribute(group, 'estimated_peak_memory_bytes', hydro%estimated_peak_memory_bytes, err)
+    call write_attribute(group, 'estimated_seconds', hydro%estimated_seconds, err)
     ! 0: solved; m: derived from motion m by a symmetry of the bead set (motion_symmetry.F90).
     call write_attribute(group, 'solve_source', hydro%solves%source, err)
     ! 1: the solution was loaded from the checkpoint of an interrupted run (checkpoint_file.f90).

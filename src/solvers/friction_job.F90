@@ -6,20 +6,16 @@ module beadmob_friction_job
   use petscmat
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use beadmob_kinds, only: dp, i8
-  use beadmob_errors, only: error_t, raise
+  use beadmob_errors, only: error_t
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_pair_blocks, only: rigid_projection
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_catalog, only: new_operator
-  use beadmob_fft_operator, only: fft_size
-  use beadmob_unit_lattice, only: on_unit_lattice
-  use beadmob_dense_operator, only: dense_max_unknowns
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
-  use beadmob_shell_model, only: shell_mask
   use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t, solve_control_t
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
@@ -28,67 +24,15 @@ module beadmob_friction_job
   use beadmob_error_estimate, only: error_estimate_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry, solves_needed
-  use beadmob_body_frame, only: body_frame_t, compute_body_frame
-  use beadmob_job_estimate, only: job_estimate_t, estimate_job
+  use beadmob_friction_settings, only: friction_settings_t
+  use beadmob_job_plan, only: job_plan_t, make_job_plan
   implicit none
   private
-  public :: friction_settings_t, friction_result_t, friction_of_model, phase_names, choose_operator, choose_solve_frame, &
-            operator_option, companion_orders
+  public :: friction_settings_t, friction_result_t, friction_of_model, friction_of_plan, phase_names, companion_orders
 
-  !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
-  integer, parameter :: dense_max_beads = 8
   character(len=*), parameter :: phase_names(6) = [character(len=11) :: 'blocks', 'near_field', 'solve', &
                                                    'companion', 'lubrication', 'total']
 
-  type :: friction_settings_t
-    integer :: order = 2                ! L
-    integer :: potential_order = 0     ! L2
-    logical :: lubrication = .true.
-    real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
-    !> 'direct', 'fft', 'pfft' or 'auto' (the faster one for the job, see choose_operator)
-    character(len=16) :: operator_name = 'auto'
-    !> The precorrected-FFT operator of off-lattice beads (pfft_operator.F90): interpolation points
-    !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost)
-    integer :: pfft_stencil = 4
-    real(dp) :: pfft_near_radius = 3.0_dp
-    !> FFTW planner of the FFT operator: 'measure' (faster products) or 'estimate' (bitwise
-    !> reproducible from run to run)
-    character(len=16) :: fft_planner = 'measure'
-    !> Pairs within this distance (d) enter the near-field preconditioning matrix; with no pairs
-    !> (radius < 1 and no clusters) the preconditioner is the single-bead PCSHELL instead.
-    real(dp) :: near_field_radius = 0.0_dp
-    !> Pairs within the same cube of this edge (lattice cells) enter it too; 0 = none.
-    integer :: near_field_cluster = 0
-    logical :: bead_forces = .false.   ! keep the force and torque of every bead for every motion
-    !> Shell model: only the beads within this many layers of the surface (0 = all beads).
-    integer :: shell_layers = 0
-    !> Krylov relative tolerance of the six solves (-ksp_rtol overrides it)
-    real(dp) :: krylov_rtol = 1.0e-3_dp
-    !> Derive the motions that symmetries of the bead set give from others instead of solving them
-    logical :: use_symmetry = .true.
-    !> The rigid motions to compute (U_x U_y U_z W_x W_y W_z); friction entries between two left
-    !> out are NaN
-    logical :: motions(6) = .true.
-    !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see
-    !> table_cache.f90): a cached run gives the same numbers to the last bit.
-    character(len=1024) :: cache_file = ''
-    !> Rank 0 prints progress lines (phases, solves). Off in the library; the driver sets it from
-    !> &run progress and -quiet (operator_option).
-    logical :: progress = .false.
-    !> Checkpoint of the solved motions ('' = none; the driver: '<output>.checkpoint.h5'), see
-    !> checkpoint_file.f90
-    character(len=1024) :: checkpoint_file = ''
-    !> The input part of the checkpoint's key: the effective input without the switches that
-    !> change no number (input_config.f90, effective_input_text)
-    character(len=:), allocatable :: checkpoint_input
-    !> Test option -stop_after_solves k: stop with an error after the k-th solve has been saved
-    !> (0 = never; -1: given but not a number >= 1, an error)
-    integer :: stop_after_solves = 0
-    !> The companion solve of order L - 1 on the same beads (theory.md T14), from which the
-    !> driver estimates the truncation error of order L; needs L >= 2 and all six motions. Off in
-    !> the library; the driver sets it from &hydrodynamics error_estimate (default on).
-    logical :: companion = .false.
-  end type friction_settings_t
 
   type :: friction_result_t
     real(dp) :: friction(6, 6) = 0.0_dp           ! with lubrication when asked for
@@ -108,6 +52,10 @@ module beadmob_friction_job
     !> (solve_frame); the friction matrices are always in model coordinates.
     real(dp) :: solve_axes(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
     integer :: hydrodynamic_beads = 0             ! beads in the solve (fewer than N for a shell model)
+    !> The plan the job ran (job_plan.f90): its Krylov solves (motions less symmetries) and its
+    !> estimate of the peak memory per rank (bytes) and of the wall time (s)
+    integer :: planned_solves = 0
+    real(dp) :: estimated_peak_memory_bytes = 0.0_dp, estimated_seconds = 0.0_dp
     character(len=16) :: operator_name = ''        ! the operator used: direct, fft, pfft or dense
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
@@ -143,72 +91,43 @@ module beadmob_friction_job
 
 contains
 
-  !> Collective.
+  !> Collective. The friction job of the model `centres` about reference_point, planned here for
+  !> the ranks of ctx (the library's entry; the driver plans first, for its dry run and memory
+  !> check, and runs that plan with friction_of_plan).
   subroutine friction_of_model(ctx, settings, centres, reference_point, result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
-    logical, allocatable :: keep(:)
-    integer :: i
-
-    if (settings%bead_forces .and. .not. all(settings%motions)) then
-      call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
-      return
-    end if
-    if (settings%stop_after_solves < 0) then
-      call raise(err, '-stop_after_solves needs a number of solves >= 1')
-      return
-    end if
-    if (settings%shell_layers == 0) then
-      call solve_frame(ctx, settings, centres, reference_point, result, err)
-      return
-    end if
-    ! Shell model (same input on every rank: the same outcome everywhere).
-    if (.not. on_unit_lattice(centres)) then
-      call raise(err, 'shell_layers needs beads on the unit lattice (a shape, not an off-lattice bead file)')
-    else if (settings%bead_forces) then
-      call raise(err, 'bead_forces needs the full model (shell_layers = 0)')
-    else
-      call shell_mask(centres, settings%shell_layers, keep, err)
-    end if
+    type(job_plan_t) :: plan
+    call make_job_plan(ctx, settings, centres, reference_point, ctx%n_ranks, 1.0_dp, plan, err)
     if (err%failed) return
-    call friction_of_beads(ctx, settings, centres(:, pack([(i, i = 1, size(centres, 2))], keep)), reference_point, &
-                           result, err)
+    call friction_of_plan(ctx, settings, plan, result, err)
   end subroutine friction_of_model
 
-  !> Collective. The friction job of a full bead set, in its body frame (body_frame.f90) when the
-  !> set is off the lattice and its symmetries save solves there but not in the model's own
-  !> coordinates (a symmetric body turned by a rotation that is no lattice symmetry: its
-  !> symmetries are signed axis permutations only in its own axes). The Galerkin operator is
-  !> exactly covariant (docs/theory.md T16), so the friction of the turned set, zeta', gives
-  !> zeta = R zeta' R^T, R = diag(Q, Q), Q the body axes (columns). Only when all six motions
-  !> are asked for and no per-bead output depends on the frame.
-  subroutine solve_frame(ctx, settings, centres, reference_point, result, err)
+  !> Collective. The friction job as planned (job_plan.f90): the solve beads in the solve frame,
+  !> the operator chosen there. Solved in the body frame, the friction zeta' of the turned beads
+  !> gives zeta = R zeta' R^T, R = diag(Q, Q), Q the body axes (columns), and so for the companion.
+  subroutine friction_of_plan(ctx, settings, plan, result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
-    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    type(job_plan_t), intent(in) :: plan
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
-    real(dp), allocatable :: turned(:, :)
-    real(dp) :: axes(3, 3), rotation(6, 6)
-    integer :: lab_solves, body_solves
+    real(dp) :: rotation(6, 6)
 
-    call choose_solve_frame(ctx, settings, centres, reference_point, turned, axes, lab_solves, body_solves, err)
-    if (err%failed) return
-    if (.not. allocated(turned)) then
-      call friction_of_beads(ctx, settings, centres, reference_point, result, err)
-      return
-    end if
-    call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // str(body_solves) // &
-                       ' solves for the six motions (' // str(lab_solves) // ' in the model''s coordinates)')
-    call friction_of_beads(ctx, settings, turned, reference_point, result, err)
-    if (err%failed) return
-    result%solve_axes = axes
+    if (plan%body_frame) call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // &
+      str(plan%n_solves) // ' solves for the six motions (' // str(plan%lab_solves) // ' in the model''s coordinates)')
+    call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, result, err)
+    result%planned_solves = plan%n_solves
+    result%estimated_peak_memory_bytes = plan%estimate%peak
+    result%estimated_seconds = plan%estimate%seconds_total
+    if (err%failed .or. .not. plan%body_frame) return
+    result%solve_axes = plan%solve_axes
     rotation = 0.0_dp
-    rotation(1:3, 1:3) = axes
-    rotation(4:6, 4:6) = axes
+    rotation(1:3, 1:3) = plan%solve_axes
+    rotation(4:6, 4:6) = plan%solve_axes
     result%multipole_friction = turned_back(result%multipole_friction)
     result%friction = turned_back(result%friction)
     result%companion_multipole_friction = turned_back(result%companion_multipole_friction)
@@ -222,45 +141,16 @@ contains
       real(dp) :: friction(6, 6)
       friction = matmul(rotation, matmul(body_friction, transpose(rotation)))
     end function turned_back
-  end subroutine solve_frame
+  end subroutine friction_of_plan
 
-  !> Collective. The solves of the six motions in the model's coordinates (lab_solves) and in the
-  !> body frame (body_solves); turned (allocated only when the body frame is the one to use):
-  !> the centres in the body frame about the reference point, axes the body axes (columns).
-  subroutine choose_solve_frame(ctx, settings, centres, reference_point, turned, axes, lab_solves, body_solves, err)
+
+  !> Collective. The friction job on the bead set `centres` (all beads in the solve) with the
+  !> operator the plan chose.
+  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
-    real(dp), allocatable, intent(out) :: turned(:, :)
-    real(dp), intent(out) :: axes(3, 3)
-    integer, intent(out) :: lab_solves, body_solves
-    type(error_t), intent(inout) :: err
-    type(body_frame_t) :: frame
-    real(dp), allocatable :: candidate(:, :)
-    lab_solves = count(settings%motions)
-    body_solves = lab_solves
-    axes = 0.0_dp
-    ! (A test stop, -stop_after_solves, fails the job before anything is turned back; it keeps the
-    ! frame, so the checkpoint it leaves belongs to the resumed job's solves.)
-    if (.not. settings%use_symmetry .or. .not. all(settings%motions) .or. settings%bead_forces .or. &
-        on_unit_lattice(centres)) return
-    ! The same replicated centres on every rank: the same frame and decision everywhere.
-    call compute_body_frame(centres, frame, err)
-    if (err%failed) return
-    axes = frame%axes
-    candidate = matmul(transpose(axes), centres - spread(reference_point, 2, size(centres, 2))) + &
-                spread(reference_point, 2, size(centres, 2))
-    lab_solves = solves_needed(ctx%comm, centres, reference_point, settings%motions, err)
-    if (.not. err%failed) body_solves = solves_needed(ctx%comm, candidate, reference_point, settings%motions, err)
-    if (err%failed .or. body_solves >= lab_solves) return
-    call move_alloc(candidate, turned)
-  end subroutine choose_solve_frame
-
-  !> Collective. The friction job on the bead set `centres` (all beads in the solve).
-  subroutine friction_of_beads(ctx, settings, centres, reference_point, result, err)
-    type(run_context_t), intent(in) :: ctx
-    type(friction_settings_t), intent(in) :: settings
-    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    character(len=*), intent(in) :: operator_name
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
     type(multipole_basis_t) :: basis
@@ -304,13 +194,7 @@ contains
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
-    call choose_operator(settings%operator_name, centres, basis%size, result%operator_name, err, settings, ctx%n_ranks)
-    if (.not. err%failed .and. settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') &
-      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
-    if (err%failed) then   ! same input on every rank: same outcome
-      PetscCallA(PetscLogStagePop(ierr))
-      return
-    end if
+    result%operator_name = operator_name
     call progress_line(report, 'phase blocks: ' // str(size(centres, 2)) // ' beads in the solve, ' // &
                        str(basis%size) // ' unknowns each, ' // trim(result%operator_name) // ' operator')
     result%cache_file = settings%cache_file
@@ -587,114 +471,5 @@ contains
           str(settings%near_field_cluster) // nl
   end function checkpoint_key
 
-  !> The PETSc command-line options of the friction job: -operator direct|fft|auto (default
-  !> auto), -fft_planner measure|estimate, -near_field_radius R (d), -near_field_cluster C
-  !> (lattice cells), -quiet (no progress lines: settings%progress = .false., else .true.; the
-  !> driver also asks &run progress), -stop_after_solves K (a test of the checkpoint: stop after
-  !> the K-th solve is saved), -geometry_only (skip the friction job) and -accuracy TARGET (its text, read
-  !> by the caller, and accuracy_given; rtol_given: whether -ksp_rtol is set too, which would
-  !> override the tolerance the target chooses).
-  subroutine operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
-    type(friction_settings_t), intent(inout) :: settings
-    logical, intent(out) :: geometry_only
-    character(len=*), intent(out), optional :: accuracy
-    logical, intent(out), optional :: accuracy_given, rtol_given
-    character(len=16) :: value
-    PetscBool :: found
-    PetscReal :: radius
-    PetscInt :: edge
-    PetscErrorCode :: ierr
-    PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-operator', value, found, ierr))
-    if (found) settings%operator_name = value
-    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_radius', radius, found, ierr))
-    if (found) settings%near_field_radius = radius
-    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-pfft_near_radius', radius, found, ierr))
-    if (found) settings%pfft_near_radius = radius
-    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-pfft_stencil', edge, found, ierr))
-    if (found) settings%pfft_stencil = int(edge)
-    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-near_field_cluster', edge, found, ierr))
-    if (found) settings%near_field_cluster = int(edge)
-    PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-fft_planner', value, found, ierr))
-    if (found) settings%fft_planner = value
-    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-quiet', found, ierr))
-    settings%progress = .not. found
-    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-stop_after_solves', edge, found, ierr))
-    if (found) settings%stop_after_solves = merge(int(edge), -1, edge >= 1)
-    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-geometry_only', found, ierr))
-    geometry_only = found
-    if (present(accuracy)) then
-      accuracy = ''
-      PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-accuracy', accuracy, found, ierr))
-      if (present(accuracy_given)) accuracy_given = found
-    end if
-    if (present(rtol_given)) then
-      PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ksp_rtol', found, ierr))
-      rtol_given = found
-    end if
-  end subroutine operator_option
 
-  !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
-  !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
-  !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
-  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the one
-  !> of the direct operator (exact blocks, N^2 / P of them per rank) and the precorrected FFT
-  !> whose estimated wall time (job_estimate.f90, the dry run's cost model: set-up, solves and the
-  !> error bar's companion on n_ranks ranks) is the smaller (bench/pfft_crossover.md checks the
-  !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
-  !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
-  !> iterations pile up and an exact solve of a few thousand unknowns is cheap
-  !> (bench/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
-  !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
-  !> the off-lattice choice.
-  subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)
-    character(len=*), intent(in) :: requested
-    real(dp), intent(in) :: centres(:, :)
-    integer, intent(in) :: block_size
-    character(len=*), intent(out) :: chosen
-    type(error_t), intent(inout) :: err
-    type(friction_settings_t), intent(in), optional :: job
-    integer, intent(in), optional :: n_ranks
-    real(dp) :: direct_work, fft_work, sites
-    integer :: axis
-    select case (trim(requested))
-    case ('direct', 'fft', 'pfft', 'dense')
-      chosen = requested
-    case ('auto')
-      chosen = 'direct'
-      if (size(centres, 2) <= dense_max_beads .and. size(centres, 2) * block_size <= dense_max_unknowns) then
-        chosen = 'dense'
-      else if (on_unit_lattice(centres)) then
-        sites = 1.0_dp
-        do axis = 1, 3
-          sites = sites * fft_size(2 * nint(maxval(centres(axis, :)) - minval(centres(axis, :))) + 1)
-        end do
-        direct_work = real(size(centres, 2), dp)**2 * block_size
-        fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
-        if (direct_work > fft_work) chosen = 'fft'
-      else if (present(job) .and. present(n_ranks)) then
-        if (estimated_seconds('pfft') < estimated_seconds('direct')) chosen = 'pfft'
-      else
-        call raise(err, 'internal: choose_operator needs the job settings and ranks for an off-lattice model')
-      end if
-    case default
-      chosen = ''
-      call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // trim(requested) // "'")
-    end select
-
-  contains
-
-    !> The dry run's wall time of the job with this off-lattice operator (all six motions).
-    real(dp) function estimated_seconds(operator_name)
-      character(len=*), intent(in) :: operator_name
-      type(job_estimate_t) :: e
-      integer :: spans(3), a
-      do a = 1, 3   ! the pfft grid's spans (job_planning.F90); the direct operator ignores them
-        spans(a) = ceiling(maxval(centres(a, :)) - minval(centres(a, :))) + job%pfft_stencil - 1
-      end do
-      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%order, &
-                       job%potential_order, operator_name, n_ranks, 6, .false., 1.0_dp, &
-                       job%companion .and. job%order >= 2, job%pfft_near_radius)
-      estimated_seconds = e%seconds_total
-    end function estimated_seconds
-  end subroutine choose_operator
 end module beadmob_friction_job

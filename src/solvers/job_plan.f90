@@ -1,0 +1,237 @@
+!> The plan of a friction job, made once before anything large is allocated and followed by
+!> everything after it: which beads are in the solve (all, or the shell model's surface layers),
+!> the frame they are solved in (the model's coordinates, or the body frame of an off-lattice
+!> body whose symmetries show only there), the operator, the solves its symmetries leave, and
+!> the estimate of memory and time (job_estimate.f90). The dry run prints it, the memory check
+!> refuses by it, the friction job runs it and the result file records it.
+module beadmob_job_plan
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_parallel, only: run_context_t, agree_on_error
+  use beadmob_unit_lattice, only: on_unit_lattice
+  use beadmob_shell_model, only: shell_mask
+  use beadmob_body_frame, only: body_frame_t, compute_body_frame
+  use beadmob_multipole_basis, only: basis_size
+  use beadmob_fft_operator, only: fft_size
+  use beadmob_dense_operator, only: dense_max_unknowns
+  use beadmob_motion_symmetry, only: solves_needed
+  use beadmob_job_estimate, only: job_estimate_t, estimate_job
+  use beadmob_friction_settings, only: friction_settings_t
+  implicit none
+  private
+  public :: job_plan_t, make_job_plan, choose_operator
+
+  !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
+  integer, parameter :: dense_max_beads = 8
+
+  type :: job_plan_t
+    integer(i8) :: model_beads = 0
+    logical :: on_lattice = .false.
+    !> The point the rigid motions turn about (the centre of mass of all beads)
+    real(dp) :: reference_point(3) = 0.0_dp
+    !> The beads of the solve, as indices into the model (all, or the shell model's)
+    integer, allocatable :: solve_beads(:)
+    !> Their centres in the solve frame (turned about the reference point into the body frame
+    !> when body_frame)
+    real(dp), allocatable :: solve_centres(:, :)
+    logical :: body_frame = .false.
+    !> The axes (columns, model coordinates) of the solve frame: the identity or the body axes
+    real(dp) :: solve_axes(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], &
+                                           [3, 3])
+    !> direct, fft, pfft or dense
+    character(len=16) :: operator_name = ''
+    !> Krylov solves of the job: the requested motions less those its symmetries give (none are
+    !> looked for with use_symmetry off or the dense operator, whose solve is exact); and the
+    !> count in the model's own coordinates (equal unless body_frame)
+    integer :: n_solves = 6, lab_solves = 6
+    !> The ranks the job is planned for
+    integer :: n_ranks = 1
+    type(job_estimate_t) :: estimate
+  end type job_plan_t
+
+contains
+
+  !> Collective. The plan of the friction job of the model `centres` with `settings`, its rigid
+  !> motions about reference_point (the driver: the centre of mass), on n_ranks
+  !> ranks (oversubscription: ranks per processor on the busiest node, which the times scale by).
+  !> A job that the settings cannot run (the same on every rank) raises err.
+  subroutine make_job_plan(ctx, settings, centres, reference_point, n_ranks, oversubscription, plan, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    integer, intent(in) :: n_ranks
+    real(dp), intent(in) :: oversubscription
+    type(job_plan_t), intent(out) :: plan
+    type(error_t), intent(inout) :: err
+    logical, allocatable :: keep(:)
+    integer :: i, spans(3)
+    logical :: shell
+
+    if (settings%bead_forces .and. .not. all(settings%motions)) then
+      call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
+    else if (settings%stop_after_solves < 0) then
+      call raise(err, '-stop_after_solves needs a number of solves >= 1')
+    else if (settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') then
+      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
+    end if
+    if (err%failed) return
+    plan%model_beads = size(centres, 2, kind=i8)
+    plan%n_ranks = max(n_ranks, 1)
+    plan%on_lattice = on_unit_lattice(centres)
+    plan%reference_point = reference_point
+
+    ! The beads of the solve (same input on every rank: the same outcome everywhere).
+    shell = settings%shell_layers > 0
+    if (shell .and. .not. plan%on_lattice) then
+      call raise(err, 'shell_layers needs beads on the unit lattice (a shape, not an off-lattice bead file)')
+    else if (shell .and. settings%bead_forces) then
+      call raise(err, 'bead_forces needs the full model (shell_layers = 0)')
+    else if (shell) then
+      call shell_mask(centres, settings%shell_layers, keep, err)
+    end if
+    if (err%failed) return
+    if (shell) then
+      plan%solve_beads = pack([(i, i = 1, size(centres, 2))], keep)
+    else
+      plan%solve_beads = [(i, i = 1, size(centres, 2))]
+    end if
+    plan%solve_centres = centres(:, plan%solve_beads)
+
+    call choose_solve_frame(ctx, settings, plan, err)
+    if (err%failed) return
+    call choose_operator(settings%operator_name, plan%solve_centres, basis_size(settings%order, settings%potential_order), &
+                         plan%operator_name, err, settings, plan%n_ranks)
+    if (err%failed) return
+    if (plan%operator_name == 'dense') then
+      plan%n_solves = count(settings%motions)
+      plan%lab_solves = plan%n_solves
+    end if
+
+    ! The estimate: lattice spans of the model, or the pfft grid's (the solve beads' extent in
+    ! the solve frame and a stencil's width, pfft_operator.F90).
+    spans = 0
+    do i = 1, 3
+      if (plan%on_lattice) then
+        spans(i) = nint(maxval(centres(i, :)) - minval(centres(i, :)))
+      else if (plan%operator_name == 'pfft') then
+        spans(i) = pfft_span(plan%solve_centres(i, :), settings%pfft_stencil)
+      end if
+    end do
+    plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
+                                 settings%order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
+                                 plan%n_solves, shell, oversubscription, settings%companion .and. all(settings%motions), &
+                                 settings%pfft_near_radius)
+  end subroutine make_job_plan
+
+  !> The pfft grid's span along one axis: the beads' extent and a stencil's width.
+  pure integer function pfft_span(coordinates, stencil)
+    real(dp), intent(in) :: coordinates(:)
+    integer, intent(in) :: stencil
+    pfft_span = ceiling(maxval(coordinates) - minval(coordinates)) + stencil - 1
+  end function pfft_span
+
+  !> Collective. The solves the requested motions need after the symmetries of the solve beads
+  !> (about the reference point), in the model's coordinates (lab_solves) and, for an off-lattice
+  !> body, in its body frame: when that needs fewer (a symmetric body turned by a rotation that
+  !> is no lattice symmetry: its symmetries are signed axis permutations only in its own axes),
+  !> the solve centres are turned into it. The Galerkin operator is exactly covariant (theory.md
+  !> T16): the friction job turns the friction back, zeta = R zeta' R^T, R = diag(Q, Q). Only
+  !> when all six motions are asked for and no per-bead output depends on the frame.
+  subroutine choose_solve_frame(ctx, settings, plan, err)
+    type(run_context_t), intent(in) :: ctx
+    type(friction_settings_t), intent(in) :: settings
+    type(job_plan_t), intent(inout) :: plan
+    type(error_t), intent(inout) :: err
+    type(body_frame_t) :: frame
+    real(dp), allocatable :: candidate(:, :)
+    integer :: body_solves
+    plan%lab_solves = count(settings%motions)
+    plan%n_solves = plan%lab_solves
+    if (.not. settings%use_symmetry) return
+    plan%lab_solves = solves_needed(ctx%comm, plan%solve_centres, plan%reference_point, settings%motions, err)
+    call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
+    if (err%failed) return
+    plan%n_solves = plan%lab_solves
+    ! (A test stop, -stop_after_solves, fails the job before anything is turned back; it keeps the
+    ! frame, so the checkpoint it leaves belongs to the resumed job's solves.)
+    if (.not. all(settings%motions) .or. settings%bead_forces .or. plan%on_lattice) return
+    ! The same replicated centres on every rank: the same frame and decision everywhere.
+    call compute_body_frame(plan%solve_centres, frame, err)
+    if (err%failed) return
+    candidate = matmul(transpose(frame%axes), plan%solve_centres - spread(plan%reference_point, 2, &
+                                                                          size(plan%solve_centres, 2))) + &
+                spread(plan%reference_point, 2, size(plan%solve_centres, 2))
+    body_solves = solves_needed(ctx%comm, candidate, plan%reference_point, settings%motions, err)
+    call agree_on_error(ctx, err)
+    if (err%failed .or. body_solves >= plan%lab_solves) return
+    plan%body_frame = .true.
+    plan%solve_axes = frame%axes
+    plan%n_solves = body_solves
+    call move_alloc(candidate, plan%solve_centres)
+  end subroutine choose_solve_frame
+
+  !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
+  !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
+  !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
+  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the one
+  !> of the direct operator (exact blocks, N^2 / P of them per rank) and the precorrected FFT
+  !> whose estimated wall time (job_estimate.f90, the dry run's cost model: set-up, solves and the
+  !> error bar's companion on n_ranks ranks) is the smaller (bench/pfft_crossover.md checks the
+  !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
+  !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
+  !> iterations pile up and an exact solve of a few thousand unknowns is cheap
+  !> (bench/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
+  !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
+  !> the off-lattice choice.
+  subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)
+    character(len=*), intent(in) :: requested
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: block_size
+    character(len=*), intent(out) :: chosen
+    type(error_t), intent(inout) :: err
+    type(friction_settings_t), intent(in), optional :: job
+    integer, intent(in), optional :: n_ranks
+    real(dp) :: direct_work, fft_work, sites
+    integer :: axis
+    select case (trim(requested))
+    case ('direct', 'fft', 'pfft', 'dense')
+      chosen = requested
+    case ('auto')
+      chosen = 'direct'
+      if (size(centres, 2) <= dense_max_beads .and. size(centres, 2) * block_size <= dense_max_unknowns) then
+        chosen = 'dense'
+      else if (on_unit_lattice(centres)) then
+        sites = 1.0_dp
+        do axis = 1, 3
+          sites = sites * fft_size(2 * nint(maxval(centres(axis, :)) - minval(centres(axis, :))) + 1)
+        end do
+        direct_work = real(size(centres, 2), dp)**2 * block_size
+        fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
+        if (direct_work > fft_work) chosen = 'fft'
+      else if (present(job) .and. present(n_ranks)) then
+        if (estimated_seconds('pfft') < estimated_seconds('direct')) chosen = 'pfft'
+      else
+        call raise(err, 'internal: choose_operator needs the job settings and ranks for an off-lattice model')
+      end if
+    case default
+      chosen = ''
+      call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // trim(requested) // "'")
+    end select
+
+  contains
+
+    !> The dry run's wall time of the job with this off-lattice operator (all six motions).
+    real(dp) function estimated_seconds(operator_name)
+      character(len=*), intent(in) :: operator_name
+      type(job_estimate_t) :: e
+      integer :: spans(3), a
+      do a = 1, 3   ! the pfft grid's spans; the direct operator ignores them
+        spans(a) = pfft_span(centres(a, :), job%pfft_stencil)
+      end do
+      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%order, &
+                       job%potential_order, operator_name, n_ranks, 6, .false., 1.0_dp, &
+                       job%companion .and. job%order >= 2, job%pfft_near_radius)
+      estimated_seconds = e%seconds_total
+    end function estimated_seconds
+  end subroutine choose_operator
+end module beadmob_job_plan
