@@ -3,7 +3,7 @@
 rank counts, resumed, cached, other FFT plans) hold the same data, to what the program promises.
 
 Every dataset and attribute must be equal (floating point: bit for bit), except the run-specific
-metadata (creation time, ranks, timings, memory), the solver's diagnostics (iterations,
+metadata (creation time, ranks, timings, memory, the estimate per rank), the solver's diagnostics (iterations,
 residuals, condition estimates: they describe each run's own solve), and the results of the
 Krylov solves. Those differ between runs by the solver error, which each file bounds itself:
 the variational friction is within `solver_error_bound` sqrt(zeta_mm zeta_nn) of the exact
@@ -16,7 +16,9 @@ import sys
 import h5py
 import numpy as np
 
-RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes"}
+#: Of this run: its date, ranks, timings and memory, and the plan's estimate, which is per rank.
+RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes",
+                "estimated_peak_memory_bytes", "estimated_seconds"}
 #: Each run's record of its own solve: compared only through the bounds they give.
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction", "companion_iterations",

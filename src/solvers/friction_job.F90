@@ -173,7 +173,7 @@ contains
     integer, allocatable :: unknowns(:)
     real(dp), allocatable :: low_start(:, :)
     type(solve_control_t) :: control
-    logical :: report, with_companion
+    logical :: report, with_companion, own_near_field
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
@@ -205,111 +205,102 @@ contains
     options%pfft_near_radius = settings%pfft_near_radius
     if (with_companion) options%companion_unknowns = companion_unknowns(basis)
     call new_operator(result%operator_name, op)
-    call op%create(ctx%comm, basis, centres, first, count, options, err)
-    call agree_on_error(ctx, err)
-    if (err%failed) then
-      call op%destroy()
-      PetscCallA(PetscLogStagePop(ierr))
-      return
-    end if
-    matrix = op%matrix
-    result%on_lattice = op%on_lattice
-    result%computed_blocks = op%computed_blocks
-    result%cached_blocks = op%cached_blocks
-    if (result%operator_name == 'pfft') then
-      result%pfft_stencil = settings%pfft_stencil
-      result%pfft_near_radius = settings%pfft_near_radius
-    end if
-    self = op%self_block
-    call mark(1)
-
-    result%near_field_radius = settings%near_field_radius
-    result%near_field_cluster = settings%near_field_cluster
-    if (op%assembled) then
-      ! The dense operator: its own Cholesky factorisation is the exact solve (rigid_body_friction
-      ! factorises the preconditioning matrix with MUMPS).
-      near_field = matrix
-      result%near_field_pairs = 0
-    else if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
-      ! No pair blocks: the single-bead blocks need no assembled matrix.
-      allocate (bead_blocks)
-      call make_bead_block_preconditioner(self, bead_blocks, err)
-      if (err%failed) then   ! the same self block on every rank
-        PetscCallA(PetscLogStagePop(ierr))
-        return
+    own_near_field = .false.
+    ! Every failure leaves the block through one exit below (the operator released, the phase's
+    ! -log_view stage closed); each is agreed on by the ranks, or the same on every rank.
+    job: block
+      call op%create(ctx%comm, basis, centres, first, count, options, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) exit job
+      matrix = op%matrix
+      result%on_lattice = op%on_lattice
+      result%computed_blocks = op%computed_blocks
+      result%cached_blocks = op%cached_blocks
+      if (result%operator_name == 'pfft') then
+        result%pfft_stencil = settings%pfft_stencil
+        result%pfft_near_radius = settings%pfft_near_radius
       end if
-      near_field = matrix
-      result%near_field_pairs = 0
-    else
-      call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, &
-                               settings%near_field_cluster, near_field, local_pairs8)
-      call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
-    end if
-    call mark(2)
+      self = op%self_block
+      call mark(1)
 
-    ! (An exact solve costs a triangular solve per motion: no symmetries are looked for.)
-    if (settings%use_symmetry .and. .not. op%assembled) then
-      allocate (symmetry)
-      PetscCallA(MatCreateVecs(matrix, layout, PETSC_NULL_VEC, ierr))
-      call find_motion_symmetry(ctx%comm, basis, centres, reference_point, first, count, layout, symmetry, err)
-      PetscCallA(VecDestroy(layout, ierr))
-      call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
-      if (err%failed) then
-        PetscCallA(PetscLogStagePop(ierr))
-        return
+      result%near_field_radius = settings%near_field_radius
+      result%near_field_cluster = settings%near_field_cluster
+      if (op%assembled) then
+        ! The dense operator: its own Cholesky factorisation is the exact solve (rigid_body_friction
+        ! factorises the preconditioning matrix with MUMPS).
+        near_field = matrix
+        result%near_field_pairs = 0
+      else if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
+        ! No pair blocks: the single-bead blocks need no assembled matrix.
+        allocate (bead_blocks)
+        call make_bead_block_preconditioner(self, bead_blocks, err)
+        if (err%failed) exit job   ! the same self block on every rank
+        near_field = matrix
+        result%near_field_pairs = 0
+      else
+        call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, &
+                                 settings%near_field_cluster, near_field, local_pairs8)
+        own_near_field = .true.
+        call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
       end if
-      result%symmetry_group_order = symmetry%group_order
-    end if
-    ! Unallocated optional arguments count as absent (Fortran 2008).
-    if (settings%bead_forces) allocate (result%bead_forces(36, count))
-    control%progress = report
-    control%stop_after_solves = settings%stop_after_solves
-    control%checkpoint_file = trim(settings%checkpoint_file)
-    if (len(control%checkpoint_file) > 0) control%checkpoint_key = checkpoint_key(settings, centres, reference_point, &
-                                                                                 basis%size, result%operator_name)
-    if (with_companion) then
-      ! The companion's basis now: the order-L solves keep their order L - 1 part as its start.
-      call companion_orders(settings%order, settings%potential_order, result%companion_order, &
-                            result%companion_potential_order)
-      low = make_multipole_basis(result%companion_order, result%companion_potential_order)
-      unknowns = companion_unknowns(basis)
-      allocate (low_start(size(unknowns) * count, 6))
-    end if
-    call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                             settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
-                             symmetry, settings%motions, control, err, unknowns, low_start)
-    if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
-    if (err%failed) then   ! the test stop: the same solve count on every rank
+      call mark(2)
+
+      ! (An exact solve costs a triangular solve per motion: no symmetries are looked for.)
+      if (settings%use_symmetry .and. .not. op%assembled) then
+        allocate (symmetry)
+        PetscCallA(MatCreateVecs(matrix, layout, PETSC_NULL_VEC, ierr))
+        call find_motion_symmetry(ctx%comm, basis, centres, reference_point, first, count, layout, symmetry, err)
+        PetscCallA(VecDestroy(layout, ierr))
+        call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
+        if (err%failed) exit job
+        result%symmetry_group_order = symmetry%group_order
+      end if
+      ! Unallocated optional arguments count as absent (Fortran 2008).
+      if (settings%bead_forces) allocate (result%bead_forces(36, count))
+      control%progress = report
+      control%stop_after_solves = settings%stop_after_solves
+      control%checkpoint_file = trim(settings%checkpoint_file)
+      if (len(control%checkpoint_file) > 0) control%checkpoint_key = checkpoint_key(settings, centres, reference_point, &
+                                                                                   basis%size, result%operator_name)
+      if (with_companion) then
+        ! The companion's basis now: the order-L solves keep their order L - 1 part as its start.
+        call companion_orders(settings%order, settings%potential_order, result%companion_order, &
+                              result%companion_potential_order)
+        low = make_multipole_basis(result%companion_order, result%companion_potential_order)
+        unknowns = companion_unknowns(basis)
+        allocate (low_start(size(unknowns) * count, 6))
+      end if
+      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
+                               settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
+                               symmetry, settings%motions, control, err, unknowns, low_start)
+      if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
+      if (err%failed) exit job   ! the test stop: the same solve count on every rank
+      call mask_uncomputed(result%solves, result%multipole_friction)
+      call mark(3)
+
+      if (with_companion) call companion_friction(err)
+      if (err%failed) exit job
       call release_operator()
-      PetscCallA(PetscLogStagePop(ierr))
-      return
-    end if
-    call mask_uncomputed(result%solves, result%multipole_friction)
-    call mark(3)
+      call mark(4)
 
-    if (with_companion) call companion_friction(err)
-    call release_operator()
+      result%friction = result%multipole_friction
+      result%companion_friction = result%companion_multipole_friction
+      if (settings%lubrication) then
+        call lubricated(settings%order, settings%potential_order, result%lubrication_table, result%friction)
+        if (with_companion .and. .not. err%failed) then
+          call lubricated(result%companion_order, result%companion_potential_order, companion_table, &
+                          result%companion_friction)
+        end if
+        if (err%failed) exit job
+        result%lubrication_reference_order = reference_order
+      end if
+      call mark(5)
+    end block job
     if (err%failed) then
+      if (allocated(op)) call release_operator()
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
-    call mark(4)
-
-    result%friction = result%multipole_friction
-    result%companion_friction = result%companion_multipole_friction
-    if (settings%lubrication) then
-      call lubricated(settings%order, settings%potential_order, result%lubrication_table, result%friction)
-      if (with_companion .and. .not. err%failed) then
-        call lubricated(result%companion_order, result%companion_potential_order, companion_table, &
-                        result%companion_friction)
-      end if
-      if (err%failed) then
-        PetscCallA(PetscLogStagePop(ierr))
-        return
-      end if
-      result%lubrication_reference_order = reference_order
-    end if
-    call mark(5)
     result%seconds(size(phase_names)) = MPI_Wtime() - start
     call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call MPI_Allreduce(peak_resident_bytes(), result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
@@ -324,7 +315,7 @@ contains
     subroutine companion_friction(err)
       type(error_t), intent(inout) :: err
       class(multipole_operator_t), allocatable, target :: low_op
-      type(bead_block_preconditioner_t), target :: low_blocks
+      type(bead_block_preconditioner_t), allocatable, target :: low_blocks
       type(motion_symmetry_t), allocatable :: low_symmetry
       type(solve_control_t) :: low_control
       Mat :: low_matrix
@@ -339,7 +330,12 @@ contains
         return
       end if
       low_matrix = low_op%matrix
-      if (.not. low_op%assembled) call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
+      ! The dense operator's own Cholesky factorisation (MUMPS) is the exact solve, as for order L;
+      ! otherwise the single-bead blocks (an unallocated low_blocks counts as absent below).
+      if (.not. low_op%assembled) then
+        allocate (low_blocks)
+        call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
+      end if
       if (.not. err%failed .and. settings%use_symmetry .and. .not. low_op%assembled) then
         allocate (low_symmetry)
         PetscCallA(MatCreateVecs(low_matrix, layout, PETSC_NULL_VEC, ierr))
@@ -350,17 +346,10 @@ contains
       if (.not. err%failed) then
         low_control%progress = report
         low_control%label = 'companion solve'
-        if (low_op%assembled) then   ! its Cholesky factorisation (MUMPS), as for the order-L solve
-          call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
-                                   reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
-                                   result%companion_solves, symmetry=low_symmetry, requested=settings%motions, &
-                                   control=low_control, initial_guess=low_start)
-        else
-          call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
-                                   reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
-                                   result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
-                                   requested=settings%motions, control=low_control, initial_guess=low_start)
-        end if
+        call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
+                                 reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
+                                 result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
+                                 requested=settings%motions, control=low_control, initial_guess=low_start)
         call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
       end if
       if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
@@ -385,12 +374,15 @@ contains
       friction = friction + lubrication_sum
     end subroutine lubricated
 
-    !> The operator and, when assembled, the near-field matrix (the dense operator's is its own).
+    !> The operator and the near-field matrix assembled for it, once (the dense operator's is its
+    !> own); the operator is gone afterwards.
     subroutine release_operator()
-      if (.not. allocated(bead_blocks) .and. .not. op%assembled) then
+      if (own_near_field) then
         PetscCallA(MatDestroy(near_field, ierr))
       end if
+      own_near_field = .false.
       call op%destroy()
+      deallocate (op)
     end subroutine release_operator
 
     !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
