@@ -23,6 +23,8 @@ import sys
 import h5py
 import numpy as np
 
+from solver_promise import allowed_difference, bound
+
 OUTPUT = "resume_box.h5"
 CHECKPOINT = OUTPUT + ".checkpoint.h5"
 OPTIONS = ["-ksp_rtol", "1e-10", "-fft_planner", "estimate"]
@@ -63,15 +65,10 @@ def hydro(path):
 
 
 def solver_allowance(first, second):
-    """|zeta_1 - zeta_2| that two runs may show (docs/theory.md T5): each within its file's
-    solver_error_bound b of the exact solve, on the scale sqrt(zeta_mm zeta_nn)."""
-    bounds, diagonal = 0.0, None
-    for path in (first, second):
-        with h5py.File(path, "r") as f:
-            g = f["hydrodynamics"]
-            bounds += float(g.attrs["solver_error_bound"])
-            diagonal = np.sqrt(np.diag(g["multipole_friction"][()]))
-    return bounds * np.outer(diagonal, diagonal)
+    """|zeta_1 - zeta_2| that the two runs' files promise (solver_promise.py)."""
+    with h5py.File(first, "r") as f, h5py.File(second, "r") as g:
+        return allowed_difference([bound(f["hydrodynamics"]), bound(g["hydrodynamics"])],
+                                  g["hydrodynamics/multipole_friction"][()])
 
 
 def interrupted(ranks, input_path):

@@ -11,6 +11,8 @@ import sys
 import h5py
 import numpy as np
 
+from solver_promise import allowed_difference, bound
+
 with h5py.File(sys.argv[1]) as a, h5py.File(sys.argv[2]) as b:
     ga, gb = a["hydrodynamics"], b["hydrodynamics"]
     sources = [int(s) for s in sys.argv[3].split(",")]
@@ -27,9 +29,7 @@ with h5py.File(sys.argv[1]) as a, h5py.File(sys.argv[2]) as b:
         failures.append("a derived motion was iterated")
     for key in [k for k in ("multipole_friction", "friction") if k in ga]:
         x, y = ga[key][()], gb[key][()]
-        diagonal = np.sqrt(np.diag(gb["multipole_friction"][()]))
-        allowed = (float(ga.attrs["solver_error_bound"]) + float(gb.attrs["solver_error_bound"])) * \
-            np.outer(diagonal, diagonal)
+        allowed = allowed_difference([bound(ga), bound(gb)], gb["multipole_friction"][()])
         ratio = (np.abs(x - y) / allowed).max()
         print(f"{key}: largest difference {np.abs(x - y).max():.1e}, {ratio:.2f} of the solver bounds")
         if not ratio <= 1:

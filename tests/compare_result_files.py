@@ -16,6 +16,8 @@ import sys
 import h5py
 import numpy as np
 
+from solver_promise import bound, entry_scale
+
 #: Of this run: its date, ranks, timings and memory, and the plan's estimate, which is per rank.
 RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes",
                 "estimated_peak_memory_bytes", "estimated_seconds"}
@@ -72,22 +74,15 @@ def collect(path):
     return items
 
 
-def solver_bounds(first, second):
-    """The promised differences: (order L, companion) relative bounds summed over both runs."""
+def solver_bounds(a, b):
+    """The promised differences: (order L, companion) bounds summed over both runs (None: a run
+    states none)."""
     def summed(name):
-        key = f"@hydrodynamics/{name}"
-        if key not in first or key not in second:
-            return None
-        if min(float(first[key]), float(second[key])) < 0:   # -1: the run states no bound
-            return None
-        return float(first[key]) + float(second[key])
+        with h5py.File(a, "r") as f, h5py.File(b, "r") as g:
+            pair = [bound(f["hydrodynamics"], name), bound(g["hydrodynamics"], name)] \
+                if "hydrodynamics" in f and "hydrodynamics" in g else [None]
+        return None if None in pair else sum(pair)
     return summed("solver_error_bound"), summed("companion_solver_error_bound")
-
-
-def entry_scale(friction):
-    """sqrt(zeta_mm zeta_nn), NaN where a motion was not computed."""
-    diagonal = np.sqrt(np.abs(np.diag(friction)))
-    return np.outer(diagonal, diagonal)
 
 
 def inverse_tolerance(bound, friction):
@@ -137,17 +132,14 @@ def tolerance(key, x, first, bounds):
 
 
 def main(a, b):
-    first, second = collect(a), collect(b)
     skipped = RUN_SPECIFIC | SOLVER_DIAGNOSTICS
-    first = {k: v for k, v in first.items() if k.rsplit("/", 1)[-1] not in skipped or k.endswith("error_bound")}
-    second = {k: v for k, v in second.items() if k.rsplit("/", 1)[-1] not in skipped or k.endswith("error_bound")}
-    bounds = solver_bounds(first, second)
+    first = {k: v for k, v in collect(a).items() if k.rsplit("/", 1)[-1] not in skipped}
+    second = {k: v for k, v in collect(b).items() if k.rsplit("/", 1)[-1] not in skipped}
+    bounds = solver_bounds(a, b)
     problems = [f"only in {a}: {k}" for k in sorted(first.keys() - second.keys())]
     problems += [f"only in {b}: {k}" for k in sorted(second.keys() - first.keys())]
     compared = 0
     for key in sorted(first.keys() & second.keys()):
-        if key.endswith("error_bound"):
-            continue
         compared += 1
         x, y = np.asarray(first[key]), np.asarray(second[key])
         if x.shape != y.shape:

@@ -352,7 +352,6 @@ contains
     !> v^T M v, M the preconditioner (positive for CG's SPD preconditioners).
     real(dp) function preconditioned_square(v)
       Vec, intent(in) :: v
-      PetscCallA(KSPGetPC(ksp, pc, ierr))
       PetscCallA(PCApply(pc, v, preconditioned, ierr))
       PetscCallA(VecDot(v, preconditioned, preconditioned_square, ierr))
     end function preconditioned_square

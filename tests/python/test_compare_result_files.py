@@ -6,13 +6,15 @@ from __future__ import annotations
 
 import importlib.util
 import shutil
+import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-_spec = importlib.util.spec_from_file_location("compare_result_files",
-                                               Path(__file__).resolve().parents[1] / "compare_result_files.py")
+_TESTS = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(_TESTS))   # compare_result_files imports solver_promise beside it
+_spec = importlib.util.spec_from_file_location("compare_result_files", _TESTS / "compare_result_files.py")
 compare = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(compare)
 
