@@ -6,6 +6,8 @@ module beadmob_input_config
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
+  use beadmob_job_defaults, only: default_multipole_order, default_lubrication, default_lubrication_cutoff, &
+                                  default_krylov_rtol, default_shell_layers, default_estimate_order
   implicit none
   private
   public :: default_estimate_order, run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
@@ -14,14 +16,6 @@ module beadmob_input_config
   real(dp), parameter :: unset_real = -huge(1.0_dp)
   integer, parameter :: unset_int = -huge(1)
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
-  !> The default shell: one surface layer. On the benchmark (bench/accuracy.md) it is on the
-  !> Pareto front of every tuning shape, about 20 % cheaper than the full model, and its largest
-  !> error against L = 3 (2.7e-3) is that of the full model (2.8e-3): at L = 2 the interior beads
-  !> add truncation error (their contacts) and next to nothing to the rigid-body friction.
-  integer, parameter :: default_shell_layers = 1
-  !> The error bar is on by default up to this order: its companion's cost grows towards the
-  !> order-L solve's with L (unknowns per bead (L - 1)/L), 1.2x the run at L = 2 and 3.
-  integer, parameter :: default_estimate_order = 4
   !> The `source` of a run without an input file.
   character(len=*), parameter :: built_in_source = 'built-in default'
   character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
@@ -49,17 +43,14 @@ module beadmob_input_config
   !> The &hydrodynamics group: present = compute the friction and mobility of the model.
   type :: hydrodynamics_config_t
     logical :: enabled = .false.
-    !> Multipole truncation order L (L = 1: force and torque per bead, the RPY level; the paper: 2).
-    integer :: multipole_order = 2
+    !> Multipole truncation order L (job_defaults.f90 says why each default is what it is)
+    integer :: multipole_order = default_multipole_order
     !> Highest degree of the sigma = 2 (potential) multipole family, L2; default max(L - 2, 0),
     !> which gives the 2L(L+2) unknowns per bead of the paper's L = 2 (docs/theory.md T3).
     integer :: potential_order = unset_int
-    !> Off by default: for dense bead bodies the pairwise rigid-doublet correction overcorrects the
-    !> friction several-fold, and without it L = 2 reproduces the paper's Table tab_mob_num
-    !> (bench/paper_table.md, docs/theory.md T9).
-    logical :: lubrication = .false.
-    !> Pairs of beads with centre distance <= cutoff (units of d) get the lubrication correction.
-    real(dp) :: lubrication_cutoff = 2.0_dp
+    !> The pairwise lubrication correction, for pairs with centre distance <= cutoff (d)
+    logical :: lubrication = default_lubrication
+    real(dp) :: lubrication_cutoff = default_lubrication_cutoff
     !> Write the force and torque of every bead for every rigid motion (large: 36 numbers a bead).
     logical :: bead_forces = .false.
     !> HDF5 table cache of the lattice blocks and lubrication corrections (relative paths: to the
@@ -72,7 +63,7 @@ module beadmob_input_config
     !> Relative tolerance of the Krylov solves (PETSc's -ksp_rtol, given on the command line,
     !> overrides it). The friction is variational: its error is ~ the square of this
     !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
-    real(dp) :: krylov_rtol = 1.0e-3_dp
+    real(dp) :: krylov_rtol = default_krylov_rtol
     !> The rigid motions to compute: 'all', or names among U_x U_y U_z W_x W_y W_z ('translations'
     !> and 'rotations' for three at once). The friction entries between two motions left out, and
     !> the mobility (which needs all six), are then NaN.

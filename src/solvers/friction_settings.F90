@@ -5,21 +5,22 @@ module beadmob_friction_settings
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use beadmob_kinds, only: dp
+  use beadmob_job_defaults, only: default_multipole_order, default_lubrication, default_lubrication_cutoff, &
+                                  default_krylov_rtol, default_pfft_stencil, default_pfft_near_radius
   implicit none
   private
   public :: friction_settings_t, operator_option
 
   type :: friction_settings_t
-    integer :: order = 2                ! L
-    integer :: potential_order = 0     ! L2
-    logical :: lubrication = .true.
-    real(dp) :: lubrication_cutoff = 2.0_dp   ! pairs with centre distance <= cutoff (d)
+    integer :: order = default_multipole_order   ! L
+    integer :: potential_order = max(default_multipole_order - 2, 0)   ! L2 (docs/theory.md T3)
+    logical :: lubrication = default_lubrication
+    real(dp) :: lubrication_cutoff = default_lubrication_cutoff   ! pairs with centre distance <= cutoff (d)
     !> 'direct', 'fft', 'pfft' or 'auto' (the faster one for the job, see choose_operator)
     character(len=16) :: operator_name = 'auto'
-    !> The precorrected-FFT operator of off-lattice beads (pfft_operator.F90): interpolation points
-    !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost)
-    integer :: pfft_stencil = 4
-    real(dp) :: pfft_near_radius = 3.0_dp
+    !> The precorrected-FFT operator's interpolation points per axis and exact-pair radius (d)
+    integer :: pfft_stencil = default_pfft_stencil
+    real(dp) :: pfft_near_radius = default_pfft_near_radius
     !> FFTW planner of the FFT operator: 'measure' (faster products) or 'estimate' (bitwise
     !> reproducible from run to run)
     character(len=16) :: fft_planner = 'measure'
@@ -32,7 +33,7 @@ module beadmob_friction_settings
     !> Shell model: only the beads within this many layers of the surface (0 = all beads).
     integer :: shell_layers = 0
     !> Krylov relative tolerance of the six solves (-ksp_rtol overrides it)
-    real(dp) :: krylov_rtol = 1.0e-3_dp
+    real(dp) :: krylov_rtol = default_krylov_rtol
     !> Derive the motions that symmetries of the bead set give from others instead of solving them
     logical :: use_symmetry = .true.
     !> The rigid motions to compute (U_x U_y U_z W_x W_y W_z); friction entries between two left
