@@ -8,7 +8,7 @@
 module beadmob_job_planning
 #include "petsc/finclude/petscsys.h"
   use petscsys
-  use beadmob_kinds, only: dp, i8
+  use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error
@@ -17,6 +17,7 @@ module beadmob_job_planning
   use beadmob_job_plan, only: job_plan_t, make_job_plan
   use beadmob_job_estimate, only: job_estimate_t
   use beadmob_progress, only: progress_line
+  use beadmob_command_line, only: option_given
   implicit none
   private
   public :: plan_friction_job, dry_run_requested
@@ -95,10 +96,7 @@ contains
 
   !> -estimate (or --estimate) is on the command line.
   logical function dry_run_requested()
-    PetscBool :: found
-    PetscErrorCode :: ierr
-    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-estimate', found, ierr))
-    dry_run_requested = found
+    dry_run_requested = option_given('estimate')
   end function dry_run_requested
 
   subroutine print_estimate(plan, limit, limit_given, ranks_given)

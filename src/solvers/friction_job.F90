@@ -23,7 +23,7 @@ module beadmob_friction_job
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
-  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry, solves_needed
+  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry
   use beadmob_friction_settings, only: friction_settings_t
   use beadmob_job_plan, only: job_plan_t, make_job_plan
   implicit none
