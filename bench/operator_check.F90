@@ -22,7 +22,7 @@ program operator_check
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
-  use beadmob_friction_settings, only: friction_settings_t, operator_option
+  use beadmob_command_line, only: read_command_line
   use beadmob_job_plan, only: choose_operator
   use beadmob_random_vectors, only: fill_random
   implicit none
@@ -35,7 +35,6 @@ program operator_check
   type(run_config_t) :: config
   type(bead_model_t) :: model
   type(multipole_basis_t) :: basis
-  type(friction_settings_t) :: settings
   type(bead_operator_t), target :: direct
   type(fft_operator_t), target :: fast
   Mat :: direct_matrix, fft_matrix
@@ -50,7 +49,7 @@ program operator_check
   character(len=4096) :: input_path
   character(len=:), allocatable :: text
   character(len=16) :: chosen
-  logical :: geometry_only, direct_made, fft_made
+  logical :: direct_made, fft_made
 
   PetscCallA(PetscInitialize(ierr))
   ctx = make_run_context(PETSC_COMM_WORLD)
@@ -70,12 +69,6 @@ program operator_check
   ! -tolerance: only to exercise the failure exit (default 1e-12, the issue's bound).
   PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-tolerance', tolerance_option, found, ierr))
   if (found) tolerance = tolerance_option
-  ! -fft_planner exactly as beadmob reads it (FFTW_MEASURE by default).
-  call operator_option(settings, geometry_only)
-  if (settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') then
-    call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
-    call finish()
-  end if
 
   ! The model exactly as beadmob builds it: rank 0 reads, every rank parses the same text.
   text = ''
@@ -84,6 +77,13 @@ program operator_check
   if (err%failed) call finish()
   call broadcast_text(ctx, text)
   call parse_input_text(text, trim(input_path), config, err)
+  ! -fft_planner exactly as beadmob reads it (FFTW_MEASURE by default).
+  if (.not. err%failed) call read_command_line(config, err)
+  if (err%failed) call finish()
+  associate (planner => config%hydrodynamics%fft_planner)
+    if (planner /= 'measure' .and. planner /= 'estimate') &
+      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(planner) // "'")
+  end associate
   if (err%failed) call finish()
   call build_bead_model(ctx, config%shape, model, err)
   call agree_on_error(ctx, err)
@@ -109,7 +109,7 @@ program operator_check
   direct_made = .true.
   direct_setup = elapsed_max(start)
 
-  fast%measure_plans = settings%fft_planner == 'measure'
+  fast%measure_plans = config%hydrodynamics%fft_planner == 'measure'
   start = synchronised_time()
   call create_fft_operator(ctx%comm, basis, model%centres, first, count, fast, fft_matrix, err)
   call agree_on_error(ctx, err)
@@ -179,7 +179,7 @@ contains
       str(basis%size) // ' unknowns per bead'
     write (*, '(a)') '  ranks:                ' // str(ctx%n_ranks)
     write (*, '(a)') '  padded FFT box:       ' // str(padded(1)) // ' x ' // str(padded(2)) // ' x ' // &
-      str(padded(3)) // ' (FFTW planner ' // trim(settings%fft_planner) // ')'
+      str(padded(3)) // ' (FFTW planner ' // trim(config%hydrodynamics%fft_planner) // ')'
     do v = 1, n_vectors
       write (*, '(a, es10.3)') '  vector ' // str(v) // ': max|y_fft - y_direct| / max|y_direct| =', difference(v)
     end do

@@ -8,8 +8,7 @@ program beadmob
   use beadmob_parallel, only: run_context_t, make_run_context
   use beadmob_build_info, only: program_version, git_hash
   use beadmob_run, only: run_beadmob
-  use beadmob_command_line, only: print_usage, check_command_line, input_argument, option_given
-  use beadmob_hdf5_support, only: set_hdf5_error_stack
+  use beadmob_command_line, only: print_usage, check_command_line, input_argument
   implicit none
   PetscErrorCode :: ierr
   type(run_context_t) :: ctx
@@ -31,10 +30,7 @@ program beadmob
   ctx = make_run_context(PETSC_COMM_WORLD)
   ! The same arguments on every rank: the same verdict everywhere.
   call check_command_line(err)
-  if (.not. err%failed) then
-    call set_hdf5_error_stack(option_given('hdf5_error_stack'))
-    call run_beadmob(ctx, input_argument(), err)
-  end if
+  if (.not. err%failed) call run_beadmob(ctx, input_argument(), err)
 
   if (err%failed .and. ctx%rank == 0) write (error_unit, '(a)') 'beadmob: error: ' // err%message
   PetscCallA(PetscFinalize(ierr))

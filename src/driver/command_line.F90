@@ -1,15 +1,19 @@
-!> beadmob's command line: its own options in one table (name, argument, help), from which the
-!> usage text is written and a misspelt beadmob option is refused before anything runs; after a
-!> run, the options that nothing used (PETSc's or beadmob's) are named in a warning.
+!> beadmob's command line: its own options in one table (name, argument, kind, help), from which
+!> the options are read into the run's settings (read_command_line, one place), the usage text is
+!> written and a misspelt beadmob option is refused before anything runs; after a run, the options
+!> that nothing used (PETSc's or beadmob's) are named in a warning.
 module beadmob_command_line
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use, intrinsic :: iso_c_binding, only: c_ptr, c_int, c_int64_t, c_char, c_null_ptr, c_f_pointer, c_associated
   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
+  use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
+  use beadmob_input_config, only: run_config_t
+  use beadmob_friction_settings, only: friction_settings_t
   implicit none
   private
-  public :: print_usage, check_command_line, warn_unused_options, input_argument, option_given
+  public :: print_usage, check_command_line, read_command_line, warn_unused_options, input_argument
 
 #if defined(PETSC_USE_64BIT_INDICES)
   integer, parameter :: c_petsc_int = c_int64_t
@@ -17,32 +21,36 @@ module beadmob_command_line
   integer, parameter :: c_petsc_int = c_int
 #endif
 
+  !> What an option's value is: none (a switch), a word, a real or an integer number.
+  integer, parameter :: switch = 0, word = 1, real_number = 2, integer_number = 3
+
   type :: option_t
     character(len=20) :: name       ! without the leading '-'
     character(len=22) :: argument   ! '' for a switch
+    integer :: kind                 ! switch, word, real_number or integer_number
     character(len=160) :: help
   end type option_t
 
-  !> Every option beadmob reads itself (PetscOptionsGet* in driver/ and solvers/).
+  !> Every option beadmob reads; store_option says where each one goes.
   type(option_t), parameter :: options(14) = [ &
-    option_t('operator', 'direct|fft|pfft|auto', 'the bead operator (default auto: the faster one for the job)'), &
-    option_t('pfft_near_radius', 'R', 'off-lattice far field: pairs within R (d) exact (default 3)'), &
-    option_t('pfft_stencil', 'S', 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
-    option_t('fft_planner', 'measure|estimate', 'FFTW plans: measured (default, faster) or reproducible'), &
-    option_t('near_field_radius', 'R', 'pairs within R (d) in the preconditioning matrix (default 0)'), &
-    option_t('near_field_cluster', 'C', 'and pairs within the same C x C x C cube of lattice cells'), &
-    option_t('geometry_only', '', 'build and check the bead model, skip &hydrodynamics'), &
-    option_t('estimate', '', 'dry run (also --estimate): bead count, unknowns, FFT box, memory per rank and ' // &
-             'expected time of the job, nothing built'), &
-    option_t('estimate_ranks', 'P', 'the estimate for P ranks (default: the ranks of the run)'), &
-    option_t('quiet', '', 'no progress lines (also &run progress = .false.)'), &
-    option_t('memory_limit', 'G', 'GiB a rank may use (default: what the node has available, shared by its ' // &
-             'ranks); a job estimated above it is refused'), &
-    option_t('accuracy', 'E', '(or --accuracy E) the cheapest settings that the benchmark data say reach a ' // &
+    option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
+    option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
+    option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
+    option_t('fft_planner', 'measure|estimate', word, 'FFTW plans: measured (default, faster) or reproducible'), &
+    option_t('near_field_radius', 'R', real_number, 'pairs within R (d) in the preconditioning matrix (default 0)'), &
+    option_t('near_field_cluster', 'C', integer_number, 'and pairs within the same C x C x C cube of lattice cells'), &
+    option_t('geometry_only', '', switch, 'build and check the bead model, skip &hydrodynamics'), &
+    option_t('estimate', '', switch, 'dry run (also --estimate): bead count, unknowns, FFT box, memory per rank ' // &
+             'and expected time of the job, nothing built'), &
+    option_t('estimate_ranks', 'P', integer_number, 'the estimate for P ranks (default: the ranks of the run)'), &
+    option_t('quiet', '', switch, 'no progress lines (also &run progress = .false.)'), &
+    option_t('memory_limit', 'G', real_number, 'GiB a rank may use (default: what the node has available, shared ' // &
+             'by its ranks); a job estimated above it is refused'), &
+    option_t('accuracy', 'E', word, '(or --accuracy E) the cheapest settings that the benchmark data say reach a ' // &
              'relative error E of the mobility coefficients (bench/accuracy.md)'), &
-    option_t('stop_after_solves', 'K', 'stop with an error once K solves are saved (a test of checkpoint ' // &
-             'and resume)'), &
-    option_t('hdf5_error_stack', '', 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
+    option_t('stop_after_solves', 'K', integer_number, 'stop with an error once K solves are saved (a test of ' // &
+             'checkpoint and resume)'), &
+    option_t('hdf5_error_stack', '', switch, 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
   !> Options written with two dashes that beadmob takes (--help, -h and --version are read first).
   character(len=*), parameter :: long_options(2) = [character(len=8) :: 'estimate', 'accuracy']
 
@@ -152,14 +160,108 @@ contains
     end do
   end subroutine check_command_line
 
-  !> Whether the switch -name is on the command line (read through PETSc, which marks it used).
-  logical function option_given(name)
-    character(len=*), intent(in) :: name
+  !> Every option of the table that is given, into `config` (store_option); PETSc's -ksp_rtol is
+  !> noted too (it overrides the Krylov tolerance an accuracy target would choose). The same
+  !> arguments on every rank: the same settings or error everywhere.
+  subroutine read_command_line(config, err)
+    type(run_config_t), intent(inout) :: config
+    type(error_t), intent(inout) :: err
+    character(len=256) :: value
     PetscBool :: found
     PetscErrorCode :: ierr
-    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-' // name, found, ierr))
-    option_given = found
-  end function option_given
+    integer :: k
+    ! &run progress = .false. or -quiet silence the progress lines.
+    config%hydrodynamics%progress = config%progress
+    do k = 1, size(options)
+      value = ''
+      PetscCallA(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-' // trim(options(k)%name), value, found, ierr))
+      if (.not. found) cycle
+      call store_option(options(k), trim(adjustl(value)), config, err)
+      if (err%failed) return
+    end do
+    PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ksp_rtol', found, ierr))
+    config%hydrodynamics%krylov_rtol_on_command_line = found
+  end subroutine read_command_line
+
+  !> The value of one given option, checked against its kind, where it belongs.
+  subroutine store_option(option, value, config, err)
+    type(option_t), intent(in) :: option
+    character(len=*), intent(in) :: value
+    type(run_config_t), intent(inout) :: config
+    type(error_t), intent(inout) :: err
+    real(dp) :: number
+    integer :: whole, status
+    number = 0.0_dp
+    whole = 0
+    status = 0
+    select case (option%kind)
+    case (real_number)
+      read (value, *, iostat=status) number
+      if (verify(value, '0123456789.eEdD+-') > 0) status = 1
+    case (integer_number)
+      read (value, *, iostat=status) whole
+      if (verify(value, '0123456789+-') > 0) status = 1
+    end select
+    if (option%kind /= switch .and. option%kind /= word .and. (status /= 0 .or. len(value) == 0)) then
+      call raise(err, '-' // trim(option%name) // ' needs ' // merge('a whole number', 'a number      ', &
+                 option%kind == integer_number) // ", got '" // value // "'")
+      return
+    end if
+    associate (job => config%hydrodynamics)
+      select case (option%name)
+      case ('operator')
+        job%operator_name = value
+      case ('pfft_near_radius')
+        job%pfft_near_radius = number
+      case ('pfft_stencil')
+        job%pfft_stencil = whole
+      case ('fft_planner')
+        job%fft_planner = value
+      case ('near_field_radius')
+        job%near_field_radius = number
+      case ('near_field_cluster')
+        job%near_field_cluster = whole
+      case ('geometry_only')
+        config%geometry_only = .true.
+      case ('estimate')
+        config%dry_run = .true.
+      case ('estimate_ranks')
+        config%estimate_ranks = whole
+        if (whole < 1) call raise(err, '-estimate_ranks must be at least 1, got ' // value)
+      case ('quiet')
+        job%progress = .false.
+      case ('memory_limit')
+        config%memory_limit_gib = number
+        if (.not. number > 0.0_dp) call raise(err, '-memory_limit must be a positive number of GiB per rank, got ' // value)
+      case ('accuracy')
+        call store_accuracy_target(value, job, err)
+      case ('stop_after_solves')
+        job%stop_after_solves = merge(whole, -1, whole >= 1)   ! the plan refuses -1
+      case ('hdf5_error_stack')
+        config%hdf5_error_stack = .true.
+      case default
+        call raise(err, "internal: the option -" // trim(option%name) // " is in the table but stored nowhere")
+      end select
+    end associate
+  end subroutine store_option
+
+  !> -accuracy E: a relative error in (0, 1) (0 would read as "no target"); it replaces the input's.
+  subroutine store_accuracy_target(value, job, err)
+    character(len=*), intent(in) :: value
+    type(friction_settings_t), intent(inout) :: job
+    type(error_t), intent(inout) :: err
+    real(dp) :: target
+    integer :: status
+    read (value, *, iostat=status) target
+    if (status /= 0 .or. len(value) == 0 .or. verify(value, '0123456789.eEdD+-') > 0) then
+      call raise(err, "-accuracy needs a relative error between 0 and 1 (e.g. 1e-2), got '" // value // "'")
+    else if (.not. (target > 0.0_dp .and. target < 1.0_dp)) then
+      call raise(err, '-accuracy must be a relative error between 0 and 1 (e.g. 1e-2), got ' // value)
+    else
+      job%accuracy = target
+      job%accuracy_on_command_line = .true.
+    end if
+  end subroutine store_accuracy_target
 
   !> The beadmob option that `name` is a misspelling of (0: none): at most one edit (a letter
   !> added, dropped, changed, or two swapped) for names up to 6 letters, two beyond.

@@ -2,9 +2,9 @@
 !> by the dry run (`beadmob --estimate job.nml`, PETSc option -estimate) and compared with the
 !> memory each rank can have. A job that would not fit is refused here with one message, on every
 !> rank together, instead of failing later in an allocation or being killed by the kernel.
-!> Options: -estimate (dry run), -estimate_ranks P (the estimate for P ranks instead of the
-!> ranks of this run), -memory_limit G (GiB a rank may use; default: what the node has available,
-!> shared by the ranks on the node).
+!> Its options (read by command_line.F90 into the run's config): -estimate (dry run),
+!> -estimate_ranks P (the estimate for P ranks instead of the ranks of this run), -memory_limit G
+!> (GiB a rank may use; default: what the node has available, shared by the ranks on the node).
 module beadmob_job_planning
 #include "petsc/finclude/petscsys.h"
   use petscsys
@@ -13,49 +13,36 @@ module beadmob_job_planning
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_resources, only: available_memory_bytes, online_processors
-  use beadmob_friction_settings, only: friction_settings_t
+  use beadmob_input_config, only: run_config_t
   use beadmob_job_plan, only: job_plan_t, make_job_plan
   use beadmob_job_estimate, only: job_estimate_t
   use beadmob_progress, only: progress_line
-  use beadmob_command_line, only: option_given
   implicit none
   private
-  public :: plan_friction_job, dry_run_requested
+  public :: plan_friction_job
 
   real(dp), parameter :: gib = 2.0_dp**30
 
 contains
 
-  !> Collective. The plan of the friction job of `centres` with `settings` (job_plan.f90), for the
-  !> ranks of the run or -estimate_ranks P; with -estimate it is printed (rank 0) and dry_run is
-  !> set: the caller stops there. Otherwise a job whose peak memory per rank exceeds the memory
-  !> available to a rank is refused (err on every rank).
-  subroutine plan_friction_job(ctx, settings, centres, plan, dry_run, err)
+  !> Collective. The plan of the friction job of `centres` with the run's settings (job_plan.f90),
+  !> for the ranks of the run or -estimate_ranks P; with -estimate (config%dry_run) it is printed
+  !> (rank 0): the caller stops there. Otherwise a job whose peak memory per rank exceeds the
+  !> memory available to a rank (or -memory_limit) is refused (err on every rank).
+  subroutine plan_friction_job(ctx, config, centres, plan, err)
     type(run_context_t), intent(in) :: ctx
-    type(friction_settings_t), intent(in) :: settings
+    type(run_config_t), intent(in) :: config
     real(dp), intent(in) :: centres(:, :)
     type(job_plan_t), intent(out) :: plan
-    logical, intent(out) :: dry_run
     type(error_t), intent(inout) :: err
     logical :: ranks_given, limit_given
     integer :: ranks
     real(dp) :: limit, available, node_available, oversubscription
-    PetscBool :: found
-    PetscInt :: ranks_option
-    PetscReal :: limit_option
     PetscErrorCode :: ierr
 
-    dry_run = dry_run_requested()
-    PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-estimate_ranks', ranks_option, found, ierr))
-    ranks_given = found
-    ranks = ctx%n_ranks
-    if (found) ranks = int(ranks_option)
-    PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-memory_limit', limit_option, found, ierr))
-    limit_given = found
-    if (ranks < 1) call raise(err, '-estimate_ranks must be at least 1, got ' // str(ranks))
-    if (limit_given .and. .not. limit_option > 0.0_dp) &
-      call raise(err, '-memory_limit must be a positive number of GiB per rank, got ' // str(real(limit_option, dp)))
-    if (err%failed) return   ! the same options on every rank
+    ranks_given = config%estimate_ranks > 0
+    ranks = merge(config%estimate_ranks, ctx%n_ranks, ranks_given)
+    limit_given = config%memory_limit_gib > 0.0_dp
 
     ! More ranks than processors on a node share them: the times grow by that factor (the largest
     ! over the nodes). An estimate for -estimate_ranks assumes a processor per rank.
@@ -63,7 +50,7 @@ contains
     call MPI_Allreduce(MPI_IN_PLACE, oversubscription, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     if (ranks_given) oversubscription = 1.0_dp
     ! The rigid motions turn about the centre of mass (as body_frame.f90 computes it).
-    call make_job_plan(ctx, settings, centres, sum(centres, dim=2) / size(centres, 2), ranks, oversubscription, &
+    call make_job_plan(ctx, config%hydrodynamics, centres, sum(centres, dim=2) / size(centres, 2), ranks, oversubscription, &
                        plan, err)
     if (err%failed) return   ! the same settings and beads everywhere (agreed on inside where not)
 
@@ -74,14 +61,14 @@ contains
     if (node_available <= 0.0_dp) available = huge(1.0_dp)   ! unknown: no refusal
     call MPI_Allreduce(MPI_IN_PLACE, available, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     limit = available
-    if (limit_given) limit = limit_option * gib
+    if (limit_given) limit = config%memory_limit_gib * gib
 
     associate (estimate => plan%estimate)
-      if (dry_run) then
+      if (config%dry_run) then
         if (ctx%rank == 0) call print_estimate(plan, limit, limit_given, ranks_given)
         return
       end if
-      call progress_line(settings%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
+      call progress_line(config%hydrodynamics%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
                          ' GiB per rank, ' // seconds_text(estimate%seconds_total) // ' (beadmob --estimate: the parts)')
       if (estimate%peak > limit) &
         call raise(err, 'the job needs about ' // gib_text(estimate%peak) // ' GiB per rank on ' // str(ranks) // &
@@ -93,11 +80,6 @@ contains
     end associate
     call agree_on_error(ctx, err)
   end subroutine plan_friction_job
-
-  !> -estimate (or --estimate) is on the command line.
-  logical function dry_run_requested()
-    dry_run_requested = option_given('estimate')
-  end function dry_run_requested
 
   subroutine print_estimate(plan, limit, limit_given, ranks_given)
     type(job_plan_t), intent(in) :: plan

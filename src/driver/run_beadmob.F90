@@ -7,8 +7,7 @@ module beadmob_run
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
-  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_shell_layers, is_set, &
-                                  default_estimate_order, &
+  use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_estimate_order, &
                                   effective_input_text
   use beadmob_progress, only: progress_line
   use beadmob_checkpoint_file, only: checkpoint_suffix, remove_checkpoint
@@ -18,8 +17,9 @@ module beadmob_run
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_result_file, only: write_result_file, partial_suffix
   use beadmob_file_system, only: probe_writable
-  use beadmob_command_line, only: warn_unused_options
-  use beadmob_friction_settings, only: friction_settings_t, operator_option
+  use beadmob_command_line, only: read_command_line, warn_unused_options
+  use beadmob_hdf5_support, only: set_hdf5_error_stack
+  use beadmob_friction_settings, only: friction_settings_t
   use beadmob_friction_job, only: friction_of_plan, friction_result_t, phase_names
   use beadmob_job_plan, only: job_plan_t
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
@@ -27,7 +27,7 @@ module beadmob_run
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
   use beadmob_unit_lattice, only: on_unit_lattice
-  use beadmob_job_planning, only: plan_friction_job, dry_run_requested
+  use beadmob_job_planning, only: plan_friction_job
   implicit none
   private
   public :: run_beadmob, read_input_file
@@ -45,11 +45,8 @@ contains
     type(mobility_result_t) :: mobility
     real(dp) :: companion_mobility(6, 6)
     type(friction_result_t) :: hydro
-    type(friction_settings_t) :: settings
     type(job_plan_t) :: plan
     type(accuracy_choice_t) :: choice
-    logical :: geometry_only, accuracy_given, rtol_given, on_lattice, dry_run
-    character(len=64) :: accuracy
     character(len=:), allocatable :: text, source
 
     text = ''
@@ -61,11 +58,20 @@ contains
       if (err%failed) return
       call broadcast_text(ctx, text)
     end if
+    ! The settings in one place: the input, then the command line (every rank the same: no divergence).
     call parse_input_text(text, source, config, err)
-    if (err%failed) return   ! every rank parsed the same text: no divergence
+    if (.not. err%failed) call read_command_line(config, err)
+    if (err%failed) return
+    call set_hdf5_error_stack(config%hdf5_error_stack)
     ! Hydrodynamics only when asked for (&hydrodynamics group, not -geometry_only).
-    call operator_option(settings, geometry_only, accuracy, accuracy_given, rtol_given)
-    if (geometry_only) config%hydrodynamics%enabled = .false.
+    if (config%geometry_only) config%hydrodynamics%enabled = .false.
+    if (config%dry_run .and. .not. config%hydrodynamics%enabled) then
+      call raise(err, '--estimate estimates the friction job: the input needs a &hydrodynamics group ' // &
+                 '(and no -geometry_only)')
+    else if (config%hydrodynamics%accuracy_on_command_line .and. .not. config%hydrodynamics%enabled) then
+      call raise(err, '-accuracy needs the friction job (a &hydrodynamics group, no -geometry_only)')
+    end if
+    if (err%failed) return   ! the same options on every rank
     ! Nothing computed may be lost to an output that cannot be written: look before building.
     if (ctx%rank == 0) call check_output_locations(config, err)
     call agree_on_error(ctx, err)
@@ -76,33 +82,12 @@ contains
     if (err%failed) return
     if (config%hydrodynamics%enabled) then
       ! Same options and input on every rank: the same choice (or error) everywhere.
-      on_lattice = on_unit_lattice(model%centres)
-      call apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_lattice, choice, err)
+      call apply_accuracy_target(config, on_unit_lattice(model%centres), choice, err)
       if (err%failed) return
-      if (.not. is_set(config%hydrodynamics%shell_layers)) config%hydrodynamics%shell_layers = &
-        merge(default_shell_layers, 0, on_lattice .and. .not. config%hydrodynamics%bead_forces)
-      settings%krylov_rtol = config%hydrodynamics%krylov_rtol
-      settings%use_symmetry = config%hydrodynamics%use_symmetry
       ! The error bar: as the input says, else up to default_estimate_order and for a target.
       if (.not. config%hydrodynamics%error_estimate_given) config%hydrodynamics%error_estimate = &
         config%hydrodynamics%multipole_order <= default_estimate_order .or. choice%target > 0.0_dp
-      settings%companion = config%hydrodynamics%error_estimate
-      settings%motions = config%hydrodynamics%motion_requested
-      settings%order = config%hydrodynamics%multipole_order
-      settings%potential_order = config%hydrodynamics%potential_order
-      settings%lubrication = config%hydrodynamics%lubrication
-      settings%lubrication_cutoff = config%hydrodynamics%lubrication_cutoff
-      settings%bead_forces = config%hydrodynamics%bead_forces
-      settings%shell_layers = config%hydrodynamics%shell_layers
-      settings%cache_file = config%hydrodynamics%cache_file
-      if (len_trim(settings%cache_file) == 0) settings%cache_file = environment_cache_file(ctx)
-      ! -quiet (read by operator_option) or &run progress = .false. silence the progress lines
-      ! (the plan's estimate line too).
-      settings%progress = settings%progress .and. config%progress
-    else if (dry_run_requested()) then
-      call raise(err, '--estimate estimates the friction job: the input needs a &hydrodynamics group ' // &
-                 '(and no -geometry_only)')
-      return   ! the same options on every rank
+      if (len_trim(config%hydrodynamics%cache_file) == 0) config%hydrodynamics%cache_file = environment_cache_file(ctx)
     end if
 
     call check_bead_model(model, config%overlap_tolerance, err)
@@ -113,30 +98,29 @@ contains
     if (config%hydrodynamics%enabled) then
       ! Know before you run: the job's plan, made once (job_plan.f90); the dry run stops here, a
       ! job that cannot fit is refused here, before anything large is allocated.
-      call plan_friction_job(ctx, settings, model%centres, plan, dry_run, err)
-      if (err%failed .or. dry_run) return   ! agreed on inside; a dry run writes no result file
+      call plan_friction_job(ctx, config, model%centres, plan, err)
+      if (err%failed .or. config%dry_run) return   ! agreed on inside; a dry run writes no result file
+      ! The shell the plan chose when the settings left it open (written with the result).
+      config%hydrodynamics%shell_layers = plan%shell_layers
     end if
     ! Without a paper value, L is the size along the body x axis (paper: x along L).
     if (model%reference_length <= 0.0_dp) model%reference_length = frame%extent(1)
 
     if (config%hydrodynamics%enabled) then
       if (config%checkpoint) then
-        settings%checkpoint_file = trim(config%output) // checkpoint_suffix
-        settings%checkpoint_input = effective_input_text(config, numbers_only=.true.)
+        config%hydrodynamics%checkpoint_file = trim(config%output) // checkpoint_suffix
+        config%hydrodynamics%checkpoint_input = effective_input_text(config, numbers_only=.true.)
       end if
       call solve_and_estimate()
       if (err%failed) return
       if (choice%target > 0.0_dp) call meet_accuracy_target()
       if (err%failed) return
       hydro%accuracy = choice
-      call progress_line(settings%progress .and. ctx%rank == 0, 'phase output')
+      call progress_line(config%hydrodynamics%progress .and. ctx%rank == 0, 'phase output')
       call write_result_file(ctx, config, model, frame, err, mobility, hydro)
       ! The result is safe: the saved solves are no longer needed (a failed write keeps them).
-      if (.not. err%failed .and. config%checkpoint .and. ctx%rank == 0) call remove_checkpoint(trim(settings%checkpoint_file))
+      if (.not. err%failed .and. config%checkpoint .and. ctx%rank == 0) call remove_checkpoint(trim(config%hydrodynamics%checkpoint_file))
     else
-      if (accuracy_given) call raise(err, '-accuracy needs the friction job (a &hydrodynamics group, ' // &
-                                     'no -geometry_only)')
-      if (err%failed) return   ! the same options on every rank
       call write_result_file(ctx, config, model, frame, err)
     end if
     if (err%failed) return
@@ -148,14 +132,14 @@ contains
 
     !> The friction job with the settings as they stand, its diagnostics, mobility and error bar.
     subroutine solve_and_estimate()
-        call friction_of_plan(ctx, settings, plan, hydro, err)
+        call friction_of_plan(ctx, config%hydrodynamics, plan, hydro, err)
         if (err%failed) return   ! agreed on inside
         ! Flagged in the file and on stderr, never hidden (docs/stress_tests.md); a non-finite
         ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
         hydro%diagnostics = diagnose_friction(hydro%friction)
         hydro%multipole_diagnostics = diagnose_friction(hydro%multipole_friction)
-        if (ctx%rank == 0 .and. .not. all(settings%motions)) then
-          write (*, '(a)') "  motions '" // trim(config%hydrodynamics%motions) // "' only: the friction " // &
+        if (ctx%rank == 0 .and. .not. all(config%hydrodynamics%motions)) then
+          write (*, '(a)') "  motions '" // trim(config%hydrodynamics%motions_text) // "' only: the friction " // &
             'entries between motions left out and the mobility are not computed (NaN)'
         else if (ctx%rank == 0) then
           if (config%hydrodynamics%lubrication) call warn(friction_warning(hydro%multipole_diagnostics, &
@@ -192,37 +176,37 @@ contains
     subroutine meet_accuracy_target()
       type(error_t) :: refused
       type(job_plan_t) :: raised
-      logical :: dry
+      type(friction_settings_t) :: solved
+      associate (job => config%hydrodynamics)
       do while (hydro%estimate%available)
         choice%estimated_error = maxval(hydro%estimate%scaled_coefficient_error)
-        if (choice%estimated_error <= choice%target .or. settings%order >= max_accuracy_order) exit
-        settings%order = settings%order + 1
-        settings%potential_order = max(settings%order - 2, 0)
-        settings%shell_layers = 0
-        call plan_friction_job(ctx, settings, model%centres, raised, dry, refused)
+        if (choice%estimated_error <= choice%target .or. job%multipole_order >= max_accuracy_order) exit
+        solved = job
+        job%multipole_order = job%multipole_order + 1
+        job%potential_order = max(job%multipole_order - 2, 0)
+        job%shell_layers = 0
+        call plan_friction_job(ctx, config, model%centres, raised, refused)
         if (refused%failed) then
           if (ctx%rank == 0) write (error_unit, '(a)') 'beadmob: warning: the accuracy target would need L = ' // &
-            str(settings%order) // ', which does not fit: ' // trim(refused%message)
-          settings%order = settings%order - 1
+            str(job%multipole_order) // ', which does not fit: ' // trim(refused%message)
+          job = solved   ! the settings of the result that stands
           exit
         end if
         if (ctx%rank == 0) write (*, '(a, es8.1, a, es8.1, a)') 'beadmob: accuracy: estimated error', &
-          choice%estimated_error, ' above the target', choice%target, ' at L = ' // str(settings%order - 1) // &
-          '; solving again at L = ' // str(settings%order) // ' on the full model'
+          choice%estimated_error, ' above the target', choice%target, ' at L = ' // str(job%multipole_order - 1) // &
+          '; solving again at L = ' // str(job%multipole_order) // ' on the full model'
         plan = raised
-        config%hydrodynamics%multipole_order = settings%order
-        config%hydrodynamics%potential_order = settings%potential_order
-        config%hydrodynamics%shell_layers = 0
-        choice%raised_order = settings%order
+        choice%raised_order = job%multipole_order
         if (config%checkpoint) then
           ! The lower order's saves are of a finished job: not a stale checkpoint to warn about.
-          settings%checkpoint_input = effective_input_text(config, numbers_only=.true.)
-          if (ctx%rank == 0) call remove_checkpoint(trim(settings%checkpoint_file))
+          job%checkpoint_input = effective_input_text(config, numbers_only=.true.)
+          if (ctx%rank == 0) call remove_checkpoint(trim(job%checkpoint_file))
           call agree_on_error(ctx, refused)   ! collective: no rank opens it before it is gone
         end if
         call solve_and_estimate()
         if (err%failed) return
       end do
+      end associate
       if (hydro%estimate%available) then
         choice%estimated_error = maxval(hydro%estimate%scaled_coefficient_error)
         choice%target_met = choice%estimated_error <= choice%target
@@ -234,32 +218,18 @@ contains
   !> sets L, the sigma = 2 degree, the shell and the Krylov tolerance to the cheapest candidate
   !> the benchmark data say reaches it (accuracy_choice.f90). It refuses to share these choices
   !> with the input or -ksp_rtol: the promise holds only for the settings it chose.
-  subroutine apply_accuracy_target(config, accuracy, accuracy_given, rtol_given, on_lattice, choice, err)
+  subroutine apply_accuracy_target(config, on_lattice, choice, err)
     type(run_config_t), intent(inout) :: config
-    character(len=*), intent(in) :: accuracy   ! the text of -accuracy
-    logical, intent(in) :: accuracy_given, rtol_given, on_lattice
+    logical, intent(in) :: on_lattice
     type(accuracy_choice_t), intent(out) :: choice
     type(error_t), intent(inout) :: err
-    real(dp) :: target
-    integer :: status
     associate (hydro => config%hydrodynamics)
-      if (accuracy_given) then
-        read (accuracy, *, iostat=status) target
-        if (status /= 0 .or. len_trim(accuracy) == 0 .or. verify(trim(accuracy), '0123456789.eEdD+-') > 0) then
-          call raise(err, "-accuracy needs a relative error between 0 and 1 (e.g. 1e-2), got '" // trim(accuracy) // "'")
-          return
-        else if (.not. (target > 0.0_dp .and. target < 1.0_dp)) then   ! 0 would read as "no target"
-          call raise(err, '-accuracy must be a relative error between 0 and 1 (e.g. 1e-2), got ' // trim(accuracy))
-          return
-        else if (hydro%choices_given) then
-          call raise(err, '-accuracy chooses multipole_order, potential_order, shell_layers and krylov_rtol; ' // &
-                     config%source // ' sets some of them: give either -accuracy or those')
-          return
-        end if
-        hydro%accuracy = target
-      end if
       if (hydro%accuracy == 0.0_dp) return
-      if (rtol_given) then
+      if (hydro%accuracy_on_command_line .and. hydro%choices_given) then
+        call raise(err, '-accuracy chooses multipole_order, potential_order, shell_layers and krylov_rtol; ' // &
+                   config%source // ' sets some of them: give either -accuracy or those')
+        return
+      else if (hydro%krylov_rtol_on_command_line) then
         call raise(err, '-ksp_rtol would override the Krylov tolerance the accuracy target chooses: ' // &
                    'give one or the other')
         return

@@ -6,15 +6,13 @@ module beadmob_input_config
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_job_defaults, only: default_multipole_order, default_lubrication, default_lubrication_cutoff, &
-                                  default_krylov_rtol, default_shell_layers, default_estimate_order
+  use beadmob_job_defaults, only: default_estimate_order, unset_real, unset_int, is_set
+  use beadmob_friction_settings, only: friction_settings_t
   implicit none
   private
-  public :: default_estimate_order, run_config_t, shape_config_t, hydrodynamics_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
-  public :: default_output_path, built_in_source, default_shell_layers
+  public :: default_estimate_order, run_config_t, shape_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
+  public :: default_output_path, built_in_source
 
-  real(dp), parameter :: unset_real = -huge(1.0_dp)
-  integer, parameter :: unset_int = -huge(1)
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
   !> The `source` of a run without an input file.
   character(len=*), parameter :: built_in_source = 'built-in default'
@@ -40,53 +38,6 @@ module beadmob_input_config
     integer :: box_beads(3) = unset_int
   end type shape_config_t
 
-  !> The &hydrodynamics group: present = compute the friction and mobility of the model.
-  type :: hydrodynamics_config_t
-    logical :: enabled = .false.
-    !> Multipole truncation order L (job_defaults.f90 says why each default is what it is)
-    integer :: multipole_order = default_multipole_order
-    !> Highest degree of the sigma = 2 (potential) multipole family, L2; default max(L - 2, 0),
-    !> which gives the 2L(L+2) unknowns per bead of the paper's L = 2 (docs/theory.md T3).
-    integer :: potential_order = unset_int
-    !> The pairwise lubrication correction, for pairs with centre distance <= cutoff (d)
-    logical :: lubrication = default_lubrication
-    real(dp) :: lubrication_cutoff = default_lubrication_cutoff
-    !> Write the force and torque of every bead for every rigid motion (large: 36 numbers a bead).
-    logical :: bead_forces = .false.
-    !> HDF5 table cache of the lattice blocks and lubrication corrections (relative paths: to the
-    !> working directory); '' = the environment variable BEADMOB_CACHE, else no cache.
-    character(len=1024) :: cache_file = ''
-    !> Shell model: only the beads within this many layers of the surface take part (0 = all).
-    !> Unset: default_shell_layers for beads on the lattice without bead_forces, else 0 (resolved
-    !> by the driver, which knows the beads).
-    integer :: shell_layers = unset_int
-    !> Relative tolerance of the Krylov solves (PETSc's -ksp_rtol, given on the command line,
-    !> overrides it). The friction is variational: its error is ~ the square of this
-    !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
-    real(dp) :: krylov_rtol = default_krylov_rtol
-    !> The rigid motions to compute: 'all', or names among U_x U_y U_z W_x W_y W_z ('translations'
-    !> and 'rotations' for three at once). The friction entries between two motions left out, and
-    !> the mobility (which needs all six), are then NaN.
-    character(len=64) :: motions = 'all'
-    logical :: motion_requested(6) = .true.
-    !> Solve only one rigid motion per orbit of the symmetries of the bead set, derive the others
-    !> (exact; motion_symmetry.F90): 2 of 6 solves for a sphere, 4 for a four-fold axis.
-    logical :: use_symmetry = .true.
-    !> The error bar: also solve the companion of order L - 1 and estimate the truncation error
-    !> from the two (error_estimate.f90, theory.md T14). Needs L >= 2. When the input does not
-    !> set it, the driver turns it on up to L = default_estimate_order (where it costs at most
-    !> 1.3x the run without it, bench/error_estimate_cost.md) and for an accuracy target.
-    logical :: error_estimate = .true.
-    logical :: error_estimate_given = .false.
-    !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the
-    !> committed benchmark data say reach it choose L, the shell and the Krylov tolerance
-    !> (accuracy_choice.f90). The command-line option -accuracy overrides it.
-    real(dp) :: accuracy = 0.0_dp
-    !> True when the input sets multipole_order, potential_order, shell_layers or krylov_rtol
-    !> itself (then an accuracy target, which chooses them, is refused).
-    logical :: choices_given = .false.
-  end type hydrodynamics_config_t
-
   type :: run_config_t
     !> Input file path, or 'built-in default' when run without one.
     character(len=:), allocatable :: source
@@ -100,24 +51,19 @@ module beadmob_input_config
     !> Save each solved motion to '<output>.checkpoint.h5' and resume from it (issue 13, item 4).
     logical :: checkpoint = .true.
     type(shape_config_t) :: shape
-    type(hydrodynamics_config_t) :: hydrodynamics
+    !> The &hydrodynamics group: the friction job's settings (its command-line part is filled by
+    !> the driver, driver/command_line.F90)
+    type(friction_settings_t) :: hydrodynamics
+    !> Command-line switches of the run (driver/command_line.F90): skip the friction job; the
+    !> dry run; the ranks it estimates for (0: the run's) and the GiB a rank may use (0: what the
+    !> node has); HDF5's own error stack on a failed call
+    logical :: geometry_only = .false., dry_run = .false.
+    integer :: estimate_ranks = 0
+    real(dp) :: memory_limit_gib = 0.0_dp
+    logical :: hdf5_error_stack = .false.
   end type run_config_t
 
-  interface is_set
-    module procedure is_set_real, is_set_int
-  end interface is_set
-
 contains
-
-  elemental logical function is_set_real(value)
-    real(dp), intent(in) :: value
-    is_set_real = value /= unset_real
-  end function is_set_real
-
-  elemental logical function is_set_int(value)
-    integer, intent(in) :: value
-    is_set_int = value /= unset_int
-  end function is_set_int
 
   !> Parse the namelist text of an input file (`source` names it in messages).
   !> An empty text means: the built-in default run (the paper's cone and its mobility at the
@@ -189,7 +135,7 @@ contains
 
   subroutine read_hydrodynamics_group(lines, source, hydro, err)
     character(len=*), intent(in) :: lines(:), source
-    type(hydrodynamics_config_t), intent(inout) :: hydro
+    type(friction_settings_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, shell_layers, status
     logical :: lubrication, bead_forces, use_symmetry, error_estimate
@@ -204,7 +150,7 @@ contains
     if (.not. hydro%enabled) return
     ! Unset markers first: an accuracy target must know whether the input chose these itself.
     multipole_order = unset_int
-    potential_order = hydro%potential_order
+    potential_order = unset_int
     shell_layers = unset_int
     krylov_rtol = unset_real
     lubrication = hydro%lubrication
@@ -214,7 +160,7 @@ contains
     accuracy = hydro%accuracy
     use_symmetry = hydro%use_symmetry
     error_estimate = hydro%error_estimate
-    motions = hydro%motions
+    motions = hydro%motions_text
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -270,8 +216,8 @@ contains
     hydro%accuracy = accuracy
     hydro%use_symmetry = use_symmetry
     hydro%error_estimate = error_estimate
-    hydro%motions = motions
-    if (.not. err%failed) call parse_motions(motions, source, hydro%motion_requested, err)
+    hydro%motions_text = motions
+    if (.not. err%failed) call parse_motions(motions, source, hydro%motions, err)
   end subroutine read_hydrodynamics_group
 
   !> Every `name = value` of `group` must give a Fortran logical (.true., .false., t, f, ...):
@@ -490,7 +436,7 @@ contains
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
       '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
       '  error_estimate = ' // merge('.true. ', '.false.', config%hydrodynamics%error_estimate) // new_line('a') // &
-      "  motions = '" // trim(config%hydrodynamics%motions) // "'" // new_line('a') // &
+      "  motions = '" // trim(config%hydrodynamics%motions_text) // "'" // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file, all_switches) // '/' // &
       new_line('a')
   contains

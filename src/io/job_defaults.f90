@@ -1,12 +1,21 @@
-!> The defaults of a friction job, declared once: the input's &hydrodynamics group
-!> (input_config.f90), the job's settings (solvers/friction_settings.F90) and the operators'
-!> options (operators/multipole_operator.F90) all start from these.
+!> The defaults of a friction job, declared once: its settings (friction_settings.f90, which the
+!> input's &hydrodynamics group and the command line fill) start from these, and the marker of a
+!> number left to the program.
 module beadmob_job_defaults
   use beadmob_kinds, only: dp
   implicit none
   private
+  public :: unset_real, unset_int, is_set
   public :: default_multipole_order, default_lubrication, default_lubrication_cutoff, default_krylov_rtol, &
             default_shell_layers, default_estimate_order, default_pfft_stencil, default_pfft_near_radius
+
+  !> Markers of a number the input leaves to the program (is_set tells them apart).
+  real(dp), parameter :: unset_real = -huge(1.0_dp)
+  integer, parameter :: unset_int = -huge(1)
+
+  interface is_set
+    module procedure is_set_real, is_set_int
+  end interface is_set
 
   !> Multipole truncation order L (L = 1: force and torque per bead, the RPY level; the paper: 2).
   integer, parameter :: default_multipole_order = 2
@@ -31,4 +40,15 @@ module beadmob_job_defaults
   !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost).
   integer, parameter :: default_pfft_stencil = 4
   real(dp), parameter :: default_pfft_near_radius = 3.0_dp
+contains
+
+  elemental logical function is_set_real(value)
+    real(dp), intent(in) :: value
+    is_set_real = value /= unset_real
+  end function is_set_real
+
+  elemental logical function is_set_int(value)
+    integer, intent(in) :: value
+    is_set_int = value /= unset_int
+  end function is_set_int
 end module beadmob_job_defaults

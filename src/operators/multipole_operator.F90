@@ -12,18 +12,18 @@ module beadmob_multipole_operator
   use beadmob_errors, only: error_t
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t
-  use beadmob_job_defaults, only: default_pfft_stencil, default_pfft_near_radius
   implicit none
   private
   public :: multipole_operator_t, operator_options_t, place_block_in_row
 
-  !> What some operators need beyond the beads and the basis.
+  !> What some operators need beyond the beads and the basis (the friction job fills it from its
+  !> settings, friction_settings.f90, which hold the defaults).
   type :: operator_options_t
     character(len=:), allocatable :: cache_file   ! table cache of the lattice blocks ('' = none)
     logical :: measure_plans = .true.             ! FFTW_MEASURE plans (fft, pfft)
     logical :: report = .false.                   ! progress lines of the set-up (rank 0)
-    integer :: pfft_stencil = default_pfft_stencil             ! interpolation points per axis (pfft)
-    real(dp) :: pfft_near_radius = default_pfft_near_radius    ! radius (d) of the exact pairs (pfft)
+    integer :: pfft_stencil = 0                   ! interpolation points per axis (pfft)
+    real(dp) :: pfft_near_radius = 0.0_dp         ! radius (d) of the exact pairs (pfft)
     !> Allocated: a companion of these unknowns (indices into the unknowns per bead) will be
     !> made, and the operator keeps what it needs for it.
     integer, allocatable :: companion_unknowns(:)

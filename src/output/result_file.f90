@@ -208,7 +208,7 @@ contains
     ! Motions not computed (solve_source -1) have no solve to converge.
     call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0 .or. &
                                                                   hydro%solves%source < 0)), err)
-    call write_attribute(group, 'motions', trim(config%hydrodynamics%motions), err)
+    call write_attribute(group, 'motions', trim(config%hydrodynamics%motions_text), err)
     call write_attribute(group, 'operator', trim(hydro%operator_name), err)
     call write_attribute(group, 'near_field_radius', hydro%near_field_radius, err)
     ! the pfft operator's far-field settings (0 for the other operators: no approximation)
@@ -280,7 +280,7 @@ contains
         missing = 'error_estimate = .false. (by the input, or by default above L = 4)'
       else if (config%hydrodynamics%multipole_order < 2) then
         missing = 'order L = 1 has no lower order to compare with'
-      else if (.not. all(config%hydrodynamics%motion_requested)) then
+      else if (.not. all(config%hydrodynamics%motions)) then
         missing = 'not all six motions were computed'
       else
         missing = 'the friction is not finite'

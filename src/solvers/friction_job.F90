@@ -186,9 +186,9 @@ contains
     end do
     start = MPI_Wtime()
     report = settings%progress .and. ctx%rank == 0
-    with_companion = settings%companion .and. settings%order >= 2 .and. all(settings%motions)
+    with_companion = settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions)
     PetscCallA(PetscLogStagePush(stages(1), ierr))
-    basis = make_multipole_basis(settings%order, settings%potential_order)
+    basis = make_multipole_basis(settings%multipole_order, settings%potential_order)
     result%unknowns_per_bead = basis%size
     result%hydrodynamic_beads = size(centres, 2)
     allocate (projection(basis%size, 6))
@@ -264,7 +264,7 @@ contains
                                                                                    basis%size, result%operator_name)
       if (with_companion) then
         ! The companion's basis now: the order-L solves keep their order L - 1 part as its start.
-        call companion_orders(settings%order, settings%potential_order, result%companion_order, &
+        call companion_orders(settings%multipole_order, settings%potential_order, result%companion_order, &
                               result%companion_potential_order)
         low = make_multipole_basis(result%companion_order, result%companion_potential_order)
         unknowns = companion_unknowns(basis)
@@ -286,7 +286,7 @@ contains
       result%friction = result%multipole_friction
       result%companion_friction = result%companion_multipole_friction
       if (settings%lubrication) then
-        call lubricated(settings%order, settings%potential_order, result%lubrication_table, result%friction)
+        call lubricated(settings%multipole_order, settings%potential_order, result%lubrication_table, result%friction)
         if (with_companion .and. .not. err%failed) then
           call lubricated(result%companion_order, result%companion_potential_order, companion_table, &
                           result%companion_friction)

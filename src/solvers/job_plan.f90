@@ -16,7 +16,8 @@ module beadmob_job_plan
   use beadmob_dense_operator, only: dense_max_unknowns
   use beadmob_motion_symmetry, only: solves_needed
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
-  use beadmob_friction_settings, only: friction_settings_t
+  use beadmob_friction_settings, only: friction_settings_t, automatic_shell_layers
+  use beadmob_job_defaults, only: is_set
   implicit none
   private
   public :: job_plan_t, make_job_plan, choose_operator
@@ -29,6 +30,9 @@ module beadmob_job_plan
     logical :: on_lattice = .false.
     !> The point the rigid motions turn about (the centre of mass of all beads)
     real(dp) :: reference_point(3) = 0.0_dp
+    !> Surface layers of the shell model (0: all beads), automatic_shell_layers when the settings
+    !> leave it open
+    integer :: shell_layers = 0
     !> The beads of the solve, as indices into the model (all, or the shell model's)
     integer, allocatable :: solve_beads(:)
     !> Their centres in the solve frame (turned about the reference point into the body frame
@@ -81,13 +85,15 @@ contains
     plan%reference_point = reference_point
 
     ! The beads of the solve (same input on every rank: the same outcome everywhere).
-    shell = settings%shell_layers > 0
+    plan%shell_layers = settings%shell_layers
+    if (.not. is_set(plan%shell_layers)) plan%shell_layers = automatic_shell_layers(plan%on_lattice, settings%bead_forces)
+    shell = plan%shell_layers > 0
     if (shell .and. .not. plan%on_lattice) then
       call raise(err, 'shell_layers needs beads on the unit lattice (a shape, not an off-lattice bead file)')
     else if (shell .and. settings%bead_forces) then
       call raise(err, 'bead_forces needs the full model (shell_layers = 0)')
     else if (shell) then
-      call shell_mask(centres, settings%shell_layers, keep, err)
+      call shell_mask(centres, plan%shell_layers, keep, err)
     end if
     if (err%failed) return
     if (shell) then
@@ -99,7 +105,7 @@ contains
 
     call choose_solve_frame(ctx, settings, plan, err)
     if (err%failed) return
-    call choose_operator(settings%operator_name, plan%solve_centres, basis_size(settings%order, settings%potential_order), &
+    call choose_operator(settings%operator_name, plan%solve_centres, basis_size(settings%multipole_order, settings%potential_order), &
                          plan%operator_name, err, settings, plan%n_ranks)
     if (err%failed) return
     if (plan%operator_name == 'dense') then
@@ -118,8 +124,8 @@ contains
       end if
     end do
     plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
-                                 settings%order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
-                                 plan%n_solves, shell, oversubscription, settings%companion .and. all(settings%motions), &
+                                 settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
+                                 plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
                                  settings%pfft_near_radius)
   end subroutine make_job_plan
 
@@ -228,9 +234,9 @@ contains
       do a = 1, 3   ! the pfft grid's spans; the direct operator ignores them
         spans(a) = pfft_span(centres(a, :), job%pfft_stencil)
       end do
-      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%order, &
+      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%multipole_order, &
                        job%potential_order, operator_name, n_ranks, 6, .false., 1.0_dp, &
-                       job%companion .and. job%order >= 2, job%pfft_near_radius)
+                       job%error_estimate .and. job%multipole_order >= 2, job%pfft_near_radius)
       estimated_seconds = e%seconds_total
     end function estimated_seconds
   end subroutine choose_operator

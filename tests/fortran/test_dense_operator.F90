@@ -52,10 +52,11 @@ contains
     character(len=:), allocatable :: label
     label = name // ', L = ' // str(order)
     reference = sum(centres, dim=2) / size(centres, 2)
-    settings%order = order
+    settings%multipole_order = order
     settings%potential_order = max(order - 2, 0)
+    settings%shell_layers = 0   ! the full model (the library, like the program, would pick a shell)
     settings%lubrication = .false.
-    settings%companion = .true.
+    settings%error_estimate = .true.
     settings%krylov_rtol = 1.0e-11_dp
     settings%operator_name = 'dense'
     call friction_of_model(ctx, settings, centres, reference, dense, err)

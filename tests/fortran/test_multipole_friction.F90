@@ -103,8 +103,9 @@ contains
     type(friction_settings_t) :: settings
     type(friction_result_t) :: result
     type(error_t) :: err
-    settings%order = order
+    settings%multipole_order = order
     settings%potential_order = max(order - 2, 0)
+    settings%shell_layers = 0   ! the full model (the library, like the program, would pick a shell)
     settings%lubrication = lubrication
     call friction_of_model(ctx, settings, centres, sum(centres, dim=2) / size(centres, 2), result, err)
     call check(suite, .not. err%failed, 'friction computed')

@@ -180,6 +180,7 @@ contains
     centre = sum(body, dim=2) / size(body, 2)
     turned = matmul(q, body - spread(centre, 2, size(body, 2)))
     settings%lubrication = .false.
+    settings%shell_layers = 0   ! the full model on the lattice, as off it
     settings%krylov_rtol = 1.0e-6_dp   ! the variational friction's solver error ~1e-12 (theory.md T5)
     settings%use_symmetry = .false.
     settings%operator_name = 'fft'

@@ -146,8 +146,9 @@ contains
     type(friction_result_t), intent(out) :: result
     type(friction_settings_t) :: settings
     type(error_t) :: err
-    settings%order = order
+    settings%multipole_order = order
     settings%potential_order = max(order - 2, 0)
+    settings%shell_layers = 0   ! the full model (the library, like the program, would pick a shell)
     settings%lubrication = lubrication
     settings%lubrication_cutoff = 1.0_dp   ! contact pairs only: one exact doublet series
     settings%operator_name = 'direct'      ! no FFTW planner: bitwise reproducible
