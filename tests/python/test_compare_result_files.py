@@ -1,4 +1,4 @@
-"""tests/compare_result_files.py (the comparison of two runs of one job) can fail: a friction
+"""tests/e2e/compare_result_files.py (the comparison of two runs of one job) can fail: a friction
 moved beyond the file's own solver error bound, or one exact item changed, is a difference;
 a move within the bound is not (issue 22, item 1)."""
 
@@ -12,9 +12,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-_TESTS = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(_TESTS))   # compare_result_files imports solver_promise beside it
-_spec = importlib.util.spec_from_file_location("compare_result_files", _TESTS / "compare_result_files.py")
+_E2E = Path(__file__).resolve().parents[1] / "e2e"
+sys.path.insert(0, str(_E2E))   # compare_result_files imports solver_promise beside it
+_spec = importlib.util.spec_from_file_location("compare_result_files", _E2E / "compare_result_files.py")
 compare = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(compare)
 

@@ -1,6 +1,6 @@
 """The postprocessor on real L = 2 output: multipole_cone.h5 of the test suite.
 
-tests/inputs/multipole_cone.nml: an 80-bead cone (base 6 d, height 7 d, mirror planes x and y
+tests/e2e/inputs/multipole_cone.nml: an 80-bead cone (base 6 d, height 7 d, mirror planes x and y
 only: the paper's class) at multipole order 2 with the lubrication correction and bead_forces.
 CTest writes it into the run directory named by BEADMOB_TEST_OUTPUT_DIR (fixture
 results_multipole_cone); without that variable these tests are skipped.

@@ -1,0 +1,203 @@
+!> Tests src/operators/fft_operator.F90 against src/operators/bead_operator.F90.
+!> CTest: test_fft_operator_np1 and test_fft_operator_np2 (the program keeps the test's name, test_fft_operator).
+!> The FFT lattice operator (src/operators/fft_operator.F90) against the direct operator
+!> (bead_operator.F90) built from the same block table: for random x the two products agree to
+!> 1e-12 relative (max-norm of the difference / max-norm of the direct product) on a small cone, a
+!> box, a random compact subset of a 6 x 5 x 4 box (fixed seed; also in reversed bead order), a flat
+!> plate, a line and one bead, at L = 1, 2, 3 with L2 = max(L - 2, 0), and at L = 2, L2 = 1 (odd
+!> block size) on the random set. Exact up to rounding because the padded circular convolution
+!> equals the linear one (n >= 2 span + 1 per axis). Also: off-lattice beads are refused with a
+!> message, and the FFT operator is symmetric (<u, A v> = <v, A u>), as CG needs.
+program test_fft_operator
+#include "petsc/finclude/petscmat.h"
+  use petscmat
+  use beadmob_kinds, only: dp, i8
+  use beadmob_testing
+  use beadmob_random_vectors, only: fill_random, hash_uniform
+  use beadmob_errors, only: error_t
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, make_run_context, block_range
+  use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
+  use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
+  use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+  implicit none
+  type(test_suite_t) :: suite
+  type(run_context_t) :: ctx
+  PetscErrorCode :: ierr
+  real(dp), allocatable :: cone(:, :), box(:, :), random_set(:, :), plate(:, :), line(:, :)
+  real(dp) :: one(3, 1)
+  integer :: order
+
+  PetscCallA(PetscInitialize(ierr))
+  suite = start_tests('test_fft_operator')
+  ctx = make_run_context(PETSC_COMM_WORLD)
+
+  call check_equal(suite, fft_size(1), 1, 'fft_size(1)')
+  call check_equal(suite, fft_size(11), 12, 'fft_size(11)')
+  call check_equal(suite, fft_size(93), 96, 'fft_size(93)')
+  call check_equal(suite, fft_size(121), 125, 'fft_size(121)')
+
+  ! Shifted off the origin, with a non-integer corner: only the lattice spacing matters.
+  cone = small_cone()
+  cone = cone + spread([10.25_dp, -3.5_dp, 7.0_dp], 2, size(cone, 2))
+  box = box_beads([3, 2, 4])
+  random_set = random_subset([6, 5, 4], 0.55_dp)
+  plate = box_beads([5, 4, 1])
+  line = box_beads([1, 1, 6])
+  one = 0.0_dp
+  call check(suite, size(cone, 2) > 20 .and. size(random_set, 2) > 30, 'test bead sets are not trivial')
+
+  do order = 1, 3
+    call compare(cone, order, max(order - 2, 0), 'small cone')
+    call compare(box, order, max(order - 2, 0), '3 x 2 x 4 box')
+    call compare(random_set, order, max(order - 2, 0), 'random subset of a 6 x 5 x 4 box')
+  end do
+  call compare(random_set, 2, 1, 'random subset of a 6 x 5 x 4 box (L2 = 1)')
+  ! Bead order unrelated to the slabs: each rank's beads scatter to every slab.
+  call compare(random_set(:, size(random_set, 2):1:-1), 2, 0, 'random subset, reversed order')
+  call compare(plate, 2, 0, 'flat 5 x 4 plate')
+  call compare(line, 2, 0, 'line of 6 beads')
+  call compare(one, 2, 0, 'one bead')
+
+  call check_off_lattice_refused()
+
+  call finish_tests(suite)
+  PetscCallA(PetscFinalize(ierr))
+
+contains
+
+  !> FFT product == direct product for a random x, and <u, A_fft v> = <v, A_fft u>.
+  subroutine compare(centres, order, potential_order, name)
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: order, potential_order
+    character(len=*), intent(in) :: name
+    type(multipole_basis_t) :: basis
+    type(bead_operator_t), target :: direct
+    type(fft_operator_t), target :: fast
+    type(error_t) :: err
+    Mat :: direct_matrix, fft_matrix
+    Vec :: x, u, y_direct, y_fft, au
+    integer(i8) :: first, count
+    real(dp) :: difference, reference, uav, vau, scale
+    character(len=:), allocatable :: label
+
+    label = name // ', L = ' // str(order) // ', L2 = ' // str(potential_order) // ', ' // str(size(centres, 2)) // ' beads'
+    basis = make_multipole_basis(order, potential_order)
+    call block_range(ctx, size(centres, 2, kind=i8), first, count)
+    call create_bead_operator(ctx%comm, basis, centres, first, count, direct, direct_matrix, err)
+    call check(suite, .not. err%failed, label // ': direct operator created')
+    call create_fft_operator(ctx%comm, basis, centres, first, count, fast, fft_matrix, err)
+    call check(suite, .not. err%failed, label // ': FFT operator created')
+    if (err%failed) then
+      write (*, '(a)') err%message
+      call destroy_bead_operator(direct, direct_matrix)
+      return
+    end if
+    call check(suite, all(fast%self_block == direct%self_block), label // ': same self block')
+
+    PetscCallA(MatCreateVecs(direct_matrix, x, y_direct, ierr))
+    PetscCallA(VecDuplicate(x, u, ierr))
+    PetscCallA(VecDuplicate(x, y_fft, ierr))
+    PetscCallA(VecDuplicate(x, au, ierr))
+    call fill_random(x, 1)
+    call fill_random(u, 2)
+    PetscCallA(MatMult(direct_matrix, x, y_direct, ierr))
+    PetscCallA(MatMult(fft_matrix, x, y_fft, ierr))
+    ! Twice: the operator's buffers must be fully reset between products.
+    PetscCallA(MatMult(fft_matrix, x, y_fft, ierr))
+    PetscCallA(VecNorm(y_direct, NORM_INFINITY, reference, ierr))
+    PetscCallA(VecAXPY(y_fft, -1.0_dp, y_direct, ierr))
+    PetscCallA(VecNorm(y_fft, NORM_INFINITY, difference, ierr))
+    call check(suite, difference <= 1.0e-12_dp * reference, label // ': FFT product = direct product, relative ' // &
+               'max-norm difference ' // str(difference / reference))
+    if (suite%rank == 0) write (*, '(a)') label // ': relative difference ' // str(difference / reference)
+
+    ! Symmetry: <u, A x> = <x, A u> (A x is y_direct's FFT twin; recompute it).
+    PetscCallA(MatMult(fft_matrix, x, y_fft, ierr))
+    PetscCallA(MatMult(fft_matrix, u, au, ierr))
+    PetscCallA(VecDot(u, y_fft, uav, ierr))
+    PetscCallA(VecDot(x, au, vau, ierr))
+    PetscCallA(VecNorm(y_fft, NORM_2, scale, ierr))
+    PetscCallA(VecNorm(u, NORM_2, reference, ierr))
+    call check(suite, abs(uav - vau) <= 1.0e-12_dp * scale * reference, label // ': FFT operator symmetric')
+
+    PetscCallA(VecDestroy(x, ierr))
+    PetscCallA(VecDestroy(u, ierr))
+    PetscCallA(VecDestroy(y_direct, ierr))
+    PetscCallA(VecDestroy(y_fft, ierr))
+    PetscCallA(VecDestroy(au, ierr))
+    call destroy_fft_operator(fast, fft_matrix)
+    call destroy_bead_operator(direct, direct_matrix)
+  end subroutine compare
+
+  subroutine check_off_lattice_refused()
+    type(multipole_basis_t) :: basis
+    type(fft_operator_t), target :: fast
+    type(error_t) :: err
+    Mat :: matrix
+    real(dp) :: beads(3, 3)
+    integer(i8) :: first, count
+    beads = reshape([0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 1.3_dp, 0.0_dp], [3, 3])
+    basis = make_multipole_basis(1, 0)
+    call block_range(ctx, 3_i8, first, count)
+    call create_fft_operator(ctx%comm, basis, beads, first, count, fast, matrix, err)
+    call check(suite, err%failed, 'off-lattice beads refused')
+    if (err%failed) call check(suite, index(err%message, 'bead 3') > 0 .and. index(err%message, 'lattice') > 0, &
+                               'off-lattice message names the bead and the lattice: ' // err%message)
+  end subroutine check_off_lattice_refused
+
+
+
+  !> Lattice points of a cone: base radius 3 at z = 0, apex at z = 6.
+  function small_cone() result(beads)
+    real(dp), allocatable :: beads(:, :)
+    integer :: x, y, z, n
+    real(dp) :: buffer(3, 7 * 7 * 7)
+    n = 0
+    do z = 0, 6
+      do y = -3, 3
+        do x = -3, 3
+          if (sqrt(real(x * x + y * y, dp)) <= 3.0_dp * (6 - z) / 6.0_dp + 1.0e-9_dp) then
+            n = n + 1
+            buffer(:, n) = [x, y, z]
+          end if
+        end do
+      end do
+    end do
+    beads = buffer(:, 1:n)
+  end function small_cone
+
+  function box_beads(counts) result(beads)
+    integer, intent(in) :: counts(3)
+    real(dp), allocatable :: beads(:, :)
+    integer :: x, y, z, n
+    allocate (beads(3, product(counts)))
+    n = 0
+    do z = 0, counts(3) - 1
+      do y = 0, counts(2) - 1
+        do x = 0, counts(1) - 1
+          n = n + 1
+          beads(:, n) = [x, y, z]
+        end do
+      end do
+    end do
+  end function box_beads
+
+  !> Each site of the box kept with the given probability (fixed seed), the two opposite
+  !> corners always, so the span is the whole box.
+  function random_subset(counts, probability) result(beads)
+    integer, intent(in) :: counts(3)
+    real(dp), intent(in) :: probability
+    real(dp), allocatable :: beads(:, :), sites(:, :)
+    logical, allocatable :: keep(:)
+    integer :: k
+    allocate (sites, source=box_beads(counts))
+    allocate (keep(size(sites, 2)))
+    do k = 1, size(sites, 2)
+      keep(k) = hash_uniform(int(k, i8) + 424242_i8) < probability
+    end do
+    keep(1) = .true.
+    keep(size(sites, 2)) = .true.
+    beads = sites(:, pack([(k, k=1, size(sites, 2))], keep))
+  end function random_subset
+end program test_fft_operator
