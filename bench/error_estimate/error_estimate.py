@@ -3,16 +3,16 @@
 result against the companion solve of order L - 1 on the same beads, docs/theory.md T14) bounds
 its true error, and whether the extrapolated value is closer to the truth than the order-L one.
 
-    python3 bench/error_estimate.py collect [--bodies a,b] [--settings s,t] [--exe build/beadmob]
-    python3 bench/error_estimate.py calibrate      # the factors of src/hydro/error_estimate.f90
-    python3 bench/error_estimate.py report         # bench/error_estimate.md and .csv (calibration
-                                                   # section from bench/error_estimate_tuning.csv)
+    python3 bench/error_estimate/error_estimate.py collect [--bodies a,b] [--settings s,t] [--exe build/beadmob]
+    python3 bench/error_estimate/error_estimate.py calibrate      # the factors of src/hydro/error_estimate.f90
+    python3 bench/error_estimate/error_estimate.py report         # bench/error_estimate/error_estimate.md and .csv (calibration
+                                                   # section from bench/error_estimate/error_estimate_tuning.csv)
 
 Bodies: a tuning set (used to choose the estimate's two factors) and a check set that was not
 (the seven paper shapes, a torus, a spheroid, a flat disc and a bent rod). Each body is run at
 the default settings (which carry the estimate) and at a reference: L = 4, the full model (no
 shell), Krylov tolerance 1e-7 (the exact Stokes mobility of the bead model up to the L = 4
-truncation, ~1e-4, bench/l_convergence_arrowhead.md). The tuning set is also run at L = 1 with
+truncation, ~1e-4, bench/accuracy/l_convergence_arrowhead.md). The tuning set is also run at L = 1 with
 the default's shell model and tolerance (the companion, computed separately) so that the
 factors can be fitted before the estimate exists in a build.
 
@@ -21,7 +21,7 @@ reference, |dM_ij| / sqrt(M_ii M_jj) -- relative on the diagonal, and for a coup
 the largest value an entry of a positive definite matrix can have there, so a coupling near zero
 is measured on the scale of its block, not its own. The paper's five coefficients are entries
 of M (times pi L or pi L^2), measured the same way.
-Runs go to bench/error_estimate_runs/ (kept: a second call only runs what is missing).
+Runs go to bench/error_estimate/error_estimate_runs/ (kept: a second call only runs what is missing).
 """
 import argparse
 import csv
@@ -31,11 +31,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "accuracy"))   # bench/accuracy/accuracy.py
 from accuracy import launch, shape_group, write_csv  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-RUNS = ROOT / "bench" / "error_estimate_runs"
+HERE = Path(__file__).resolve().parent   # this study's folder: bench/<study>/
+ROOT = HERE.parents[1]
+RUNS = HERE / "error_estimate_runs"
 PAPER_SHAPES = ["cone", "crescent_moon", "arrowhead", "ring_1mm", "ring_2mm", "ring_3mm", "ring_4mm"]
 # name -> (&shape group, role); bead files are written by make_bead_file
 BODIES = {
@@ -106,7 +107,7 @@ def make_bead_file(name):
     else:
         raise ValueError(name)
     RUNS.mkdir(parents=True, exist_ok=True)
-    np.savetxt(path, points, fmt="%d", header=f"{name}: {len(points)} beads (bench/error_estimate.py)")
+    np.savetxt(path, points, fmt="%d", header=f"{name}: {len(points)} beads (bench/error_estimate/error_estimate.py)")
 
 
 def body_group(name):
@@ -215,7 +216,7 @@ def calibrate(bodies):
     per entry of the mobility and for the coefficients' entries, and how the compiled factors do
     there (the factors were chosen from these numbers: docs/theory.md T14)."""
     rows = tuning_rows(bodies)
-    write_csv(ROOT / "bench" / "error_estimate_tuning.csv", rows)
+    write_csv(HERE / "error_estimate_tuning.csv", rows)
     print("\n".join(calibration_lines(rows)))
 
 
@@ -252,7 +253,7 @@ def block_max(step, i, j):
 
 
 def report(bodies):
-    """bench/error_estimate.md and .csv: each check body's run (default settings, its own
+    """bench/error_estimate/error_estimate.md and .csv: each check body's run (default settings, its own
     estimate) against the reference, per coefficient and for the whole mobility."""
     rows, cost = [], []
     for name in bodies:
@@ -277,13 +278,13 @@ def report(bodies):
                          extrapolated_true_error=ext_truth.max(),
                          extrapolated_estimate=run_["estimated_extrapolated_error"]))
         cost.append((name, run_["n"], run_["phases"]))
-    write_csv(ROOT / "bench" / "error_estimate.csv", rows)
+    write_csv(HERE / "error_estimate.csv", rows)
     write_report(rows, cost)
 
 
 def read_tuning_rows():
     """The rows `calibrate` wrote (the tuning runs need not be present for the report)."""
-    with open(ROOT / "bench" / "error_estimate_tuning.csv", newline="") as source:
+    with open(HERE / "error_estimate_tuning.csv", newline="") as source:
         return [{k: (v if k == "body" else float(v)) for k, v in r.items()} for r in csv.DictReader(source)]
 
 
@@ -297,13 +298,13 @@ def write_report(rows, cost):
     closer = [r for r in judged if r["extrapolated_true_error"] < r["true_error"]]
     ext_bound = [r for r in judged if r["extrapolated_estimate"] >= r["extrapolated_true_error"]]
     zero_ok = [r for r in zero if r["estimate"] <= 1e-6]
-    out = ["# The error bar of a run against the truth (generated by `python3 bench/error_estimate.py report`)", "",
+    out = ["# The error bar of a run against the truth (generated by `python3 bench/error_estimate/error_estimate.py report`)", "",
            "Every run with `&hydrodynamics` at L >= 2 also solves the companion of order L - 1 on the same beads and "
            "reports an estimated error per mobility entry and coefficient, and a value extrapolated in L with its own "
            "error (docs/theory.md T14, src/hydro/error_estimate.f90). Here each check body is run at the default "
            "settings (L = 2, one surface layer, Krylov tolerance 1e-3) and compared with its reference: "
            "L = 4, the full model (no shell), Krylov tolerance 1e-7, i.e. the exact Stokes mobility of the bead model "
-           "up to the L = 4 truncation (about 1e-4, bench/l_convergence_arrowhead.md). None of the check bodies was "
+           "up to the L = 4 truncation (about 1e-4, bench/accuracy/l_convergence_arrowhead.md). None of the check bodies was "
            "used to choose the estimate's factors (section Calibration).", "",
            "Measure: |dM_ij| / sqrt(M_ii M_jj) for entry (i, j) of the body-frame mobility (relative for mu11, mu22, "
            "mu33; a coupling on the scale of its block, which stays meaningful near zero).", "",
@@ -333,7 +334,7 @@ def write_report(rows, cost):
                    f"{r['extrapolated_true_error']:.1e} | {r['extrapolated_estimate']:.1e} |")
     out += ["", "## Cost of the companion", "",
             "Wall time of the friction job's phases in the default run (the companion phase is the estimate's "
-            "cost; bench/error_estimate_cost.md compares whole runs with and without it side by side).", "",
+            "cost; bench/error_estimate/error_estimate_cost.md compares whole runs with and without it side by side).", "",
             "| body | beads | blocks | solve | companion | total | companion / (total - companion) |",
             "|---|---|---|---|---|---|---|"]
     for name, n, ph in cost:
@@ -344,11 +345,11 @@ def write_report(rows, cost):
             "The factors were chosen on the tuning bodies only (" +
             ", ".join(dict.fromkeys(r["body"] for r in tuning)) + "): the same reference, the default run, and "
             "a separate L = 1 run with the default's shell model and tolerance standing in for the companion "
-            "(bench/error_estimate_tuning.csv). 'truth / step' is the true error of the order-L value over its "
+            "(bench/error_estimate/error_estimate_tuning.csv). 'truth / step' is the true error of the order-L value over its "
             "difference from order L - 1; the estimate is max(entry_factor step, block_factor block step).", ""]
     out += calibration_lines(tuning)
-    (ROOT / "bench" / "error_estimate.md").write_text("\n".join(out) + "\n")
-    print("wrote bench/error_estimate.md")
+    (HERE / "error_estimate.md").write_text("\n".join(out) + "\n")
+    print("wrote bench/error_estimate/error_estimate.md")
 
 
 if __name__ == "__main__":

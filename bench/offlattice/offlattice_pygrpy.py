@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""pygrpy beside beadmob (issue 14, bench/offlattice.md): the RPY rigid-body mobility of a bead model.
+"""pygrpy beside beadmob (issue 14, bench/offlattice/offlattice.md): the RPY rigid-body mobility of a bead model.
 
 The Rotne-Prager-Yamakawa (RPY) approximation (Rotne & Prager, J. Chem. Phys. 50, 4831 (1969);
 Yamakawa, J. Chem. Phys. 53, 436 (1970); rotational blocks: Wajnryb, Mizerski, Zuk & Szymczak,
@@ -22,7 +22,7 @@ units of the centres, mobility about the origin of the coordinates given (hence 
 
 Subcommands:
   check            single sphere and two touching beads against closed-form RPY values, and
-                   the 200-bead models of bench/offlattice.py against this file's own dense numpy
+                   the 200-bead models of bench/offlattice/offlattice.py against this file's own dense numpy
                    implementation (rpy_rigid_friction), to ~1e-10 relative
   time FILE ...    pygrpy on bead files (text, "x y z" in d), each in its own subprocess: wall
                    time of the whole call and of its parts (grand mobility build, the 6N x 6N
@@ -30,9 +30,9 @@ Subcommands:
   estimate N ...   pygrpy time and memory at N beads from the measured rows of --csv (build ~ N^2,
                    inverse ~ N^3, memory ~ N^2)
 
-usage: python3 bench/offlattice_pygrpy.py check
-       OPENBLAS_NUM_THREADS=1 python3 bench/offlattice_pygrpy.py time FILE.txt [...] [--csv C]
-       python3 bench/offlattice_pygrpy.py estimate 5000 20000 [--csv C]
+usage: python3 bench/offlattice/offlattice_pygrpy.py check
+       OPENBLAS_NUM_THREADS=1 python3 bench/offlattice/offlattice_pygrpy.py time FILE.txt [...] [--csv C]
+       python3 bench/offlattice/offlattice_pygrpy.py estimate 5000 20000 [--csv C]
 """
 import argparse
 import csv
@@ -47,8 +47,9 @@ import time
 import numpy as np
 import scipy.linalg
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TIMES_CSV = os.path.join(ROOT, "bench", "offlattice_runs", "pygrpy_times.csv")
+HERE = os.path.dirname(os.path.abspath(__file__))   # this study's folder: bench/<study>/
+ROOT = os.path.dirname(os.path.dirname(HERE))
+TIMES_CSV = os.path.join(HERE, "offlattice_runs", "pygrpy_times.csv")
 RADIUS = 0.5
 
 

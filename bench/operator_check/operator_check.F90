@@ -3,7 +3,7 @@
 !> model and the basis (L, L2 from &hydrodynamics, else L = 2, L2 = 0), both operators, applies
 !> both to 3 random vectors and prints the max-norm relative difference of each product and the
 !> set-up and median product wall times (max over ranks). Exits with status 1 when a difference
-!> exceeds 1e-12 (or on any error). Run by bench/operator-check.sh.
+!> exceeds 1e-12 (or on any error). Run by bench/operator_check/operator_check.sh.
 !> Usage: [mpirun -n P] operator_check INPUT.nml [-repeats R] [-fft_planner measure|estimate] [-tolerance T]
 !> (R rounds of the 3 products, default 1; T default 1e-12)
 program operator_check
@@ -190,7 +190,7 @@ contains
     write (*, '(a, f8.2)') '  ratio direct/FFT:     ', median(direct_times) / median(fft_times)
     write (*, '(a, f8.2, a)') '  choose_operator:      work N^2 nb / 5 M log2 M = ', direct_work / fft_work, &
       ', auto chooses ' // trim(chosen)
-    ! One line for bench/operator-check.sh.
+    ! One line for bench/operator_check/operator_check.sh.
     write (*, '(a, *(g0))') 'summary shape=', model%shape_name, ' n=', n_beads, ' box=', padded(1), 'x', padded(2), &
       'x', padded(3), ' ranks=', ctx%n_ranks, ' max_difference=', maxval(difference), ' direct_product=', &
       median(direct_times), ' fft_product=', median(fft_times), ' direct_setup=', direct_setup, ' fft_setup=', &

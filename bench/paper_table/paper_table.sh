@@ -2,16 +2,16 @@
 # The paper's Table tab_mob_num (settlers paper) recomputed: the seven paper shapes at L = 2 on
 # 2 ranks, $REPEATS runs each (default 3, wall times as medians) with the lubrication correction
 # on (cutoff given below), which also records the order-L friction alone. Writes
-# bench/paper_table.md (or $PAPER_TABLE) and the result files to bench/paper_runs/. Needs a
+# bench/paper_table/paper_table.md (or $PAPER_TABLE) and the result files to bench/paper_table/paper_runs/. Needs a
 # Release build (scripts/build.sh; another build directory: $BUILD_DIR). Extra PETSc options:
 # $PAPER_OPTIONS; extra &hydrodynamics settings: $PAPER_HYDRO (default none: beadmob's defaults).
-#   bench/paper_table.md:        PAPER_HYDRO='shell_layers = 0, use_symmetry = .false.' (full model)
-#   bench/paper_table_shell1.md: PAPER_TABLE=bench/paper_table_shell1.md (the default settings)
+#   bench/paper_table/paper_table.md:        PAPER_HYDRO='shell_layers = 0, use_symmetry = .false.' (full model)
+#   bench/paper_table/paper_table_shell1.md: PAPER_TABLE=bench/paper_table/paper_table_shell1.md (the default settings)
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
+root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/scripts/mpi-env.sh"
 exe=${BUILD_DIR:-$root/build}/beadmob
-out=$root/bench/paper_runs
+out=$root/bench/paper_table/paper_runs
 cutoff=${LUBRICATION_CUTOFF:-1.0}
 mkdir -p "$out"
 repeats=${REPEATS:-3}   # wall times are reported as the median of the repeated runs
@@ -29,6 +29,6 @@ for repeat in $(seq "$repeats"); do
   done
 done
 mv "$out/wall_times.txt.new" "$out/wall_times.txt"
-table=${PAPER_TABLE:-$root/bench/paper_table.md}
-python3 "$root/bench/paper_table.py" "$out" > "$table"
+table=${PAPER_TABLE:-$root/bench/paper_table/paper_table.md}
+python3 "$root/bench/paper_table/paper_table.py" "$out" > "$table"
 echo "wrote $table"

@@ -11,12 +11,12 @@
 #               (-near_field_radius 1; the truncated matrix is not positive definite, see
 #               docs/theory.md T11; run on the two smaller spheres only)
 # One run per cell (iteration counts do not depend on machine load). Writes
-# bench/preconditioners.md. Needs a Release build (scripts/build.sh); BUILD_DIR overrides it.
+# bench/preconditioners/preconditioners.md. Needs a Release build (scripts/build.sh); BUILD_DIR overrides it.
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
+root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/scripts/mpi-env.sh"
 exe=${BUILD_DIR:-$root/build}/beadmob
-work=$root/bench/preconditioner_runs
+work=$root/bench/preconditioners/preconditioner_runs
 mkdir -p "$work"
 declare -A options=([none]="-pc_type none" [bead]="" [guess]="-ksp_guess_type fischer -ksp_guess_fischer_model 1,6"
                     [cluster2]="-near_field_cluster 2"
@@ -37,5 +37,5 @@ for variant in bead none guess cluster2 cluster3 radius1; do
     run sphere_r19.3 "&shape name = 'sphere', radius = 19.3 /" "$variant"
   fi
 done
-python3 "$root/bench/preconditioners_table.py" "$work" > "$root/bench/preconditioners.md"
-echo "wrote bench/preconditioners.md"
+python3 "$root/bench/preconditioners/preconditioners_table.py" "$work" > "$root/bench/preconditioners/preconditioners.md"
+echo "wrote bench/preconditioners/preconditioners.md"

@@ -3,16 +3,16 @@
 # about 1e3 ... 1e6 beads at L = 2 with the default settings (FFT operator, one surface layer,
 # symmetry-derived motions, CG tolerance 1e-3), 2 ranks; the 1e5 sphere and the paper cone also on 1
 # and 4 ranks (4 oversubscribed on the 2-core machine); before each run the dry run's estimate for
-# the same ranks (bench/scaling.md, "Estimate against measurement"). With PREV_EXE (the beadmob of
+# the same ranks (bench/scaling/scaling.md, "Estimate against measurement"). With PREV_EXE (the beadmob of
 # an earlier commit) the 1e5 sphere is run PAIRS times side by side, new and previous in turn.
-# One run per row otherwise (the large runs take minutes). Writes bench/scaling.csv, .md, .png.
+# One run per row otherwise (the large runs take minutes). Writes bench/scaling/scaling.csv, .md, .png.
 # Needs a Release build (scripts/build.sh). SCALING_RADII overrides the 2-rank sphere radii.
 # ESTIMATES_ONLY=1 redoes only the dry runs of the kept runs (after a change of the estimate).
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
+root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/scripts/mpi-env.sh"
 exe=${EXE:-${BUILD_DIR:-$root/build}/beadmob}
-work=$root/bench/scaling_runs
+work=$root/bench/scaling/scaling_runs
 mkdir -p "$work"
 radii=${SCALING_RADII:-"28.8 41.5 62.1 6.2 13.4 19.3"}
 run() {  # run <tag> <ranks> <shape group> [executable] [more &hydrodynamics settings]
@@ -48,4 +48,4 @@ done
 run cone_np1 1 "$cone"
 run cone_np2 2 "$cone"
 run cone_np4 4 "$cone"
-python3 "$root/bench/scaling_table.py" "$work" "$root/bench"
+python3 "$root/bench/scaling/scaling_table.py" "$work" "$root/bench/scaling"

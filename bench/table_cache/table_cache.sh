@@ -6,7 +6,7 @@
 # on a shared machine the CPU time is the steadier measure. Extra beadmob options go after the script
 # name (e.g. -fft_planner estimate). Needs a Release build (BUILD_DIR, default ./build).
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
+root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/scripts/mpi-env.sh"
 exe=${BUILD_DIR:-$root/build}/beadmob
 work=$(mktemp -d)

@@ -38,7 +38,7 @@ module beadmob_paper_shapes
   !> rounded, with the table's scale 29 / 6.28 mm). H only tilts the wings, i.e. sets the
   !> couplings mu42, mu51: scaled with the table's L/d like the body length,
   !> H = round(29 * 4.93 / 6.28) = round(22.77) = 23 (the same beads as H = 22.77), which
-  !> reproduces all five coefficients of Table tab_mob_num (bench/shape_readings.md; the
+  !> reproduces all five coefficients of Table tab_mob_num (bench/shape_readings/shape_readings.md; the
   !> earlier floor(28 * 4.93 / 6.28) = 21 missed mu42, mu51 by 33 %).
   real(dp), parameter, public :: paper_arrowhead_length = 28.0_dp
   real(dp), parameter, public :: paper_arrowhead_height = 23.0_dp
@@ -48,7 +48,7 @@ module beadmob_paper_shapes
   real(dp), parameter, public :: paper_ring_semi_major(4) = [30.90_dp, 33.72_dp, 37.08_dp, 39.06_dp]
   real(dp), parameter, public :: paper_ring_semi_minor(4) = [27.90_dp, 27.60_dp, 27.48_dp, 27.36_dp]
   !> The appendix lists the gap half-angles 10 deg 47', 20 deg 32', 28 deg 30', 36 deg 35' (items
-  !> a-d); the model uses the angles below instead (bench/shape_readings.md runs both).
+  !> a-d); the model uses the angles below instead (bench/shape_readings/shape_readings.md runs both).
   !> Measured openings (section "Rigid particles": 1.02, 2.02, 3.02, 4.02 mm) and the scale
   !> 12 d/mm: the listed arcs of the 3 and 4 mm rings are 36.23 = 12 x 3.02 and 48.24 =
   !> 12 x 4.02 d (and 2R = 7.2 d for the width 0.596 mm is 12.1 d/mm). The gap arc of every
@@ -60,7 +60,7 @@ module beadmob_paper_shapes
   !> test checks it): 11 deg 22', 20 deg 44', 28 deg 31', 36 deg 35'. The 3 and 4 mm rings keep
   !> the listed angles' beads; 1 and 2 mm get wider gaps, which brings their mu42, mu51 within
   !> 3 % of the table but ring 1 mm's mu51 (+3.8 %); with the listed angles they missed by 8-10 %
-  !> and 3 %. No single gap rule tried fits all 20 ring coefficients (bench/shape_readings.md).
+  !> and 3 %. No single gap rule tried fits all 20 ring coefficients (bench/shape_readings/shape_readings.md).
   real(dp), parameter, public :: paper_ring_gap_half_angle_deg(4) = &
     [11.361565167835_dp, 20.740409759798_dp, 28.511889540928_dp, 36.582314683360_dp]
   !> Pipe radius of the paper, R = 3.6.

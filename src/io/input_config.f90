@@ -62,7 +62,7 @@ module beadmob_input_config
     integer :: shell_layers = unset_int
     !> Relative tolerance of the Krylov solves (PETSc's -ksp_rtol, given on the command line,
     !> overrides it). The friction is variational: its error is ~ the square of this
-    !> (bench/solver_tolerance.md), so the default is far below the L = 2 truncation error.
+    !> (bench/accuracy/solver_tolerance.md), so the default is far below the L = 2 truncation error.
     real(dp) :: krylov_rtol = default_krylov_rtol
     !> The rigid motions to compute: 'all', or names among U_x U_y U_z W_x W_y W_z ('translations'
     !> and 'rotations' for three at once). The friction entries between two motions left out, and
@@ -75,7 +75,7 @@ module beadmob_input_config
     !> The error bar: also solve the companion of order L - 1 and estimate the truncation error
     !> from the two (error_estimate.f90, theory.md T14). Needs L >= 2. When the input does not
     !> set it, the driver turns it on up to L = default_estimate_order (where it costs at most
-    !> 1.3x the run without it, bench/error_estimate_cost.md) and for an accuracy target.
+    !> 1.3x the run without it, bench/error_estimate/error_estimate_cost.md) and for an accuracy target.
     logical :: error_estimate = .true.
     logical :: error_estimate_given = .false.
     !> Target relative error of the mobility coefficients (0 = none): the cheapest settings the

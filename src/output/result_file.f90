@@ -218,7 +218,7 @@ contains
     call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
     call write_attribute(group, 'krylov_rtol_setting', config%hydrodynamics%krylov_rtol, err)
     ! accuracy_target 0: none asked for; otherwise the choice and the error the data promise
-    ! (bench/accuracy.md, against the reference run named by accuracy_reference).
+    ! (bench/accuracy/accuracy.md, against the reference run named by accuracy_reference).
     call write_attribute(group, 'accuracy_target', hydro%accuracy%target, err)
     if (hydro%accuracy%target > 0.0_dp) then
       call write_attribute(group, 'accuracy_setting', trim(hydro%accuracy%setting), err)
