@@ -86,7 +86,7 @@ for r in rows:
 
 def coupling_after_shift(r, dz):
     """mu42, mu51 of the order-L mobility about the centre of mass moved by dz (d) along body z:
-    M_rt(P) = M_rt + M_rr [d]x (README, centre of mobility)."""
+    M_rt(P) = M_rt + M_rr [d]x (docs/output.md, centre of mobility)."""
     m, axes, length = r["mobility"], r["axes"], r["paper"].length_over_d
     rt = axes @ m[3:6, 0:3] @ axes.T
     rr = axes @ m[3:6, 3:6] @ axes.T

@@ -107,7 +107,7 @@ def nearest_param(a, b, x, y):
 
 def count_ring(a, b, pipe, half_deg):
     """Nodes strictly within pipe of the ellipse, minus those whose nearest ellipse point has
-    t* in [90 - half, 90 + half] deg (appendix 'Open Ring'; strict / inclusive as the README)."""
+    t* in [90 - half, 90 + half] deg (appendix 'Open Ring'; strict / inclusive as shapes/README.md)."""
     nx, ny, nz = int(np.ceil(a + pipe)), int(np.ceil(b + pipe)), int(np.ceil(pipe))
     x, y = np.meshgrid(np.arange(-nx, nx + 1, dtype=float), np.arange(-ny, ny + 1, dtype=float))
     x, y = x.ravel(), y.ravel()

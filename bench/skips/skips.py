@@ -83,7 +83,7 @@ def main():
              f"2 ranks, medians of {args.repeats} repeats with the variants alternating; time ratio = median of the",
              "per-repeat ratios to the default run. Coefficient change: largest relative change of the paper's",
              "five coefficients of the run's result (with the correction for 'with lubrication': a different model,",
-             "README 'Lubrication') against the default run; 'n/a' where the run has none.", "",
+             "docs/input.md 'Lubrication') against the default run; 'n/a' where the run has none.", "",
              "| shape | variant | wall time (s) | ratio to default | motions solved | CG iterations | "
              "symmetry group | coefficient change |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:

@@ -66,7 +66,7 @@ module beadmob_paper_shapes
   !> Pipe radius of the paper, R = 3.6.
   real(dp), parameter, public :: paper_ring_tube_radius = 3.6_dp
   !> Radius passed to build_open_ring: R - d/2 = 3.1 (whole bead inside the pipe); this
-  !> is the reading nearest to the paper's counts (README), R = 3.6 itself gives ~7100 beads.
+  !> is the reading nearest to the paper's counts (shapes/README.md), R = 3.6 itself gives ~7100 beads.
   real(dp), parameter, public :: paper_ring_pipe_radius = paper_ring_tube_radius - 0.5_dp
   !> Crescent moon: s = 6.2, epsilon = 0.6 (appendix "Crescent Moon").
   real(dp), parameter, public :: paper_crescent_scale = 6.2_dp
@@ -117,7 +117,7 @@ contains
   !> |x| <= L/2, 0 <= y <= W and k|x| <= z < S + k|x|, slope k = (H - S) / (L/2).
   !> The upper bound is half-open (the paper writes <=): every column (x, y) then holds
   !> exactly S lattice nodes for integer S, which is what gives the paper's count
-  !> 29 * 11 * 16 = 5104 (the inclusive reading gives 5137, see README).
+  !> 29 * 11 * 16 = 5104 (the inclusive reading gives 5137, see shapes/README.md).
   !> Nodes on the lower surface or on |x| = L/2, y = 0, y = W are kept; nodes on the upper
   !> surface are not; tolerance boundary_tolerance * max(1, L, H).
   subroutine build_arrowhead(length, height, middle_height, width, centres, err)
@@ -173,7 +173,7 @@ contains
   !> (margin 1e-9 rad); nodes on the minor axis above the centre have theta* = 90 deg exactly.
   !> Output is rotated (x, y, z) -> (x, -z, y): ellipse in the xz plane, semi-major axis along
   !> x, gap on the +z axis, pipe thickness along y.
-  !> For the paper's rings pass pipe_radius = paper_ring_pipe_radius (R - d/2, see README).
+  !> For the paper's rings pass pipe_radius = paper_ring_pipe_radius (R - d/2, see shapes/README.md).
   subroutine build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle_deg, centres, err)
     real(dp), intent(in) :: semi_major, semi_minor, pipe_radius, gap_half_angle_deg
     real(dp), allocatable, intent(out) :: centres(:, :)

@@ -1,4 +1,4 @@
-!> The result file of a run (schema in README.md, "Output"). Written collectively with
+!> The result file of a run (schema in docs/output.md). Written collectively with
 !> parallel HDF5 to '<output>.partial' and renamed to '<output>' only when complete, so a
 !> failed run never leaves a half-written result under the requested name.
 module beadmob_result_file
