@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Writes a Slurm batch script for a beadmob job whose ranks, memory and time limit come from the
-# dry run (README, "On a cluster"):
+# dry run (docs/cluster.md):
 #
 #   scripts/beadmob-slurm.sh JOB.nml RANKS [OUT.slurm]    then   sbatch OUT.slurm
 #

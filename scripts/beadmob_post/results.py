@@ -1,4 +1,4 @@
-"""Reading beadmob result files (HDF5, schema in the top-level README.md, section "Output").
+"""Reading beadmob result files (HDF5, schema in docs/output.md).
 
 Only what the postprocessor needs is read, and anything else in the file (groups, datasets or
 attributes added by later versions of beadmob, e.g. ``/mobility`` or ``/solver``) is ignored.
@@ -245,7 +245,7 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
     """Read ``/hydrodynamics``: friction (required), the rest when present.
 
     The 6x6 matrices are read as stored: beadmob writes them so that C-order readers (h5py)
-    see [row, column] (README, section "Output"). ``bead_forces`` (N x 36) is not read.
+    see [row, column] (docs/output.md). ``bead_forces`` (N x 36) is not read.
     """
     # A run of some motions only (&hydrodynamics motions) leaves the friction entries between two
     # motions not computed NaN and has no mobility: those items then read as absent.

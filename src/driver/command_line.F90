@@ -47,7 +47,7 @@ module beadmob_command_line
     option_t('memory_limit', 'G', real_number, 'GiB a rank may use (default: what the node has available, shared ' // &
              'by its ranks); a job estimated above it is refused'), &
     option_t('accuracy', 'E', word, '(or --accuracy E) the cheapest settings that the benchmark data say reach a ' // &
-             'relative error E of the mobility coefficients (bench/accuracy.md)'), &
+             'relative error E of the mobility coefficients (bench/accuracy/accuracy.md)'), &
     option_t('stop_after_solves', 'K', integer_number, 'stop with an error once K solves are saved (a test of ' // &
              'checkpoint and resume)'), &
     option_t('hdf5_error_stack', '', switch, 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]

@@ -281,7 +281,7 @@ contains
     if (hydro%accuracy%target > 0.0_dp) then
       write (*, '(a, es8.1, a, es8.1, a)') '  accuracy target', hydro%accuracy%target, ': setting ' // &
         trim(hydro%accuracy%setting) // ', expected error', hydro%accuracy%expected_error, &
-        ' (bench/accuracy.md, against ' // trim(hydro%accuracy%reference) // ')'
+        ' (bench/accuracy/accuracy.md, against ' // trim(hydro%accuracy%reference) // ')'
       if (hydro%accuracy%estimated_error >= 0.0_dp) write (*, '(a, es8.1, a)') '  accuracy: the run''s own ' // &
         'estimated error', hydro%accuracy%estimated_error, merge(' meets the target      ', ' misses the target     ', &
                                                                  hydro%accuracy%target_met)

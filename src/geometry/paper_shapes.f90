@@ -38,7 +38,7 @@ module beadmob_paper_shapes
   !> rounded, with the table's scale 29 / 6.28 mm). H only tilts the wings, i.e. sets the
   !> couplings mu42, mu51: scaled with the table's L/d like the body length,
   !> H = round(29 * 4.93 / 6.28) = round(22.77) = 23 (the same beads as H = 22.77), which
-  !> reproduces all five coefficients of Table tab_mob_num (bench/shape_readings.md; the
+  !> reproduces all five coefficients of Table tab_mob_num (bench/shape_readings/shape_readings.md; the
   !> earlier floor(28 * 4.93 / 6.28) = 21 missed mu42, mu51 by 33 %).
   real(dp), parameter, public :: paper_arrowhead_length = 28.0_dp
   real(dp), parameter, public :: paper_arrowhead_height = 23.0_dp
@@ -48,7 +48,7 @@ module beadmob_paper_shapes
   real(dp), parameter, public :: paper_ring_semi_major(4) = [30.90_dp, 33.72_dp, 37.08_dp, 39.06_dp]
   real(dp), parameter, public :: paper_ring_semi_minor(4) = [27.90_dp, 27.60_dp, 27.48_dp, 27.36_dp]
   !> The appendix lists the gap half-angles 10 deg 47', 20 deg 32', 28 deg 30', 36 deg 35' (items
-  !> a-d); the model uses the angles below instead (bench/shape_readings.md runs both).
+  !> a-d); the model uses the angles below instead (bench/shape_readings/shape_readings.md runs both).
   !> Measured openings (section "Rigid particles": 1.02, 2.02, 3.02, 4.02 mm) and the scale
   !> 12 d/mm: the listed arcs of the 3 and 4 mm rings are 36.23 = 12 x 3.02 and 48.24 =
   !> 12 x 4.02 d (and 2R = 7.2 d for the width 0.596 mm is 12.1 d/mm). The gap arc of every
@@ -60,13 +60,13 @@ module beadmob_paper_shapes
   !> test checks it): 11 deg 22', 20 deg 44', 28 deg 31', 36 deg 35'. The 3 and 4 mm rings keep
   !> the listed angles' beads; 1 and 2 mm get wider gaps, which brings their mu42, mu51 within
   !> 3 % of the table but ring 1 mm's mu51 (+3.8 %); with the listed angles they missed by 8-10 %
-  !> and 3 %. No single gap rule tried fits all 20 ring coefficients (bench/shape_readings.md).
+  !> and 3 %. No single gap rule tried fits all 20 ring coefficients (bench/shape_readings/shape_readings.md).
   real(dp), parameter, public :: paper_ring_gap_half_angle_deg(4) = &
     [11.361565167835_dp, 20.740409759798_dp, 28.511889540928_dp, 36.582314683360_dp]
   !> Pipe radius of the paper, R = 3.6.
   real(dp), parameter, public :: paper_ring_tube_radius = 3.6_dp
   !> Radius passed to build_open_ring: R - d/2 = 3.1 (whole bead inside the pipe); this
-  !> is the reading nearest to the paper's counts (README), R = 3.6 itself gives ~7100 beads.
+  !> is the reading nearest to the paper's counts (shapes/README.md), R = 3.6 itself gives ~7100 beads.
   real(dp), parameter, public :: paper_ring_pipe_radius = paper_ring_tube_radius - 0.5_dp
   !> Crescent moon: s = 6.2, epsilon = 0.6 (appendix "Crescent Moon").
   real(dp), parameter, public :: paper_crescent_scale = 6.2_dp
@@ -117,7 +117,7 @@ contains
   !> |x| <= L/2, 0 <= y <= W and k|x| <= z < S + k|x|, slope k = (H - S) / (L/2).
   !> The upper bound is half-open (the paper writes <=): every column (x, y) then holds
   !> exactly S lattice nodes for integer S, which is what gives the paper's count
-  !> 29 * 11 * 16 = 5104 (the inclusive reading gives 5137, see README).
+  !> 29 * 11 * 16 = 5104 (the inclusive reading gives 5137, see shapes/README.md).
   !> Nodes on the lower surface or on |x| = L/2, y = 0, y = W are kept; nodes on the upper
   !> surface are not; tolerance boundary_tolerance * max(1, L, H).
   subroutine build_arrowhead(length, height, middle_height, width, centres, err)
@@ -173,7 +173,7 @@ contains
   !> (margin 1e-9 rad); nodes on the minor axis above the centre have theta* = 90 deg exactly.
   !> Output is rotated (x, y, z) -> (x, -z, y): ellipse in the xz plane, semi-major axis along
   !> x, gap on the +z axis, pipe thickness along y.
-  !> For the paper's rings pass pipe_radius = paper_ring_pipe_radius (R - d/2, see README).
+  !> For the paper's rings pass pipe_radius = paper_ring_pipe_radius (R - d/2, see shapes/README.md).
   subroutine build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle_deg, centres, err)
     real(dp), intent(in) :: semi_major, semi_minor, pipe_radius, gap_half_angle_deg
     real(dp), allocatable, intent(out) :: centres(:, :)

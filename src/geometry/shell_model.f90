@@ -1,7 +1,7 @@
 !> The shell model of a lattice bead body: only the beads within a given number of layers of the
 !> surface. The rigid-body friction is carried by the surface traction; interior beads of a full
 !> model carry forces that decay into the body, so dropping them changes the friction little
-!> and removes a large share of the unknowns of a thick body (bench/accuracy.md measures the
+!> and removes a large share of the unknowns of a thick body (bench/accuracy/accuracy.md measures the
 !> change). Layer 1 = beads with at least one empty face-neighbour site (6-neighbourhood);
 !> layer k = beads k - 1 face steps from layer 1.
 module beadmob_shell_model

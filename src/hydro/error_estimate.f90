@@ -10,9 +10,9 @@
 !>   estimated error      e_ij = max(entry_factor s_ij, block_factor b_ij)
 !>   extrapolated value   M_ij(L) + extrapolation_ratio (M_ij(L) - M_ij(L - 1))
 !>   its estimated error  max(extrapolated_entry_factor s_ij, extrapolated_block_factor b_ij).
-!> The factors were fitted on bodies outside the validation set (bench/error_estimate.py
+!> The factors were fitted on bodies outside the validation set (bench/error_estimate/error_estimate.py
 !> calibrate) against L = 4, full-model references, and are checked on the paper's shapes and
-!> others in bench/error_estimate.md; they hold for the default settings' kind of run (the
+!> others in bench/error_estimate/error_estimate.md; they hold for the default settings' kind of run (the
 !> shell model and Krylov tolerance enter the fitted errors).
 module beadmob_error_estimate
   use beadmob_kinds, only: dp
@@ -22,7 +22,7 @@ module beadmob_error_estimate
   public :: error_estimate_t, estimate_error, entry_factor, block_factor, extrapolation_ratio, &
             extrapolated_entry_factor, extrapolated_block_factor
 
-  ! bench/error_estimate.md, "Calibration" (fitted on the tuning bodies only).
+  ! bench/error_estimate/error_estimate.md, "Calibration" (fitted on the tuning bodies only).
   real(dp), parameter :: entry_factor = 0.6_dp
   real(dp), parameter :: block_factor = 0.03_dp
   real(dp), parameter :: extrapolation_ratio = 0.15_dp

@@ -21,14 +21,14 @@ module beadmob_job_defaults
   integer, parameter :: default_multipole_order = 2
   !> Off by default: for dense bead bodies the pairwise rigid-doublet correction overcorrects the
   !> friction several-fold, and without it L = 2 reproduces the paper's Table tab_mob_num
-  !> (bench/paper_table.md, docs/theory.md T9).
+  !> (bench/paper_table/paper_table.md, docs/theory.md T9).
   logical, parameter :: default_lubrication = .false.
   !> Pairs of beads with centre distance <= cutoff (units of d) get the lubrication correction.
   real(dp), parameter :: default_lubrication_cutoff = 2.0_dp
   !> Relative tolerance of the Krylov solves. The friction is variational: its error is ~ the
-  !> square of this (theory.md T5, bench/solver_tolerance.md), far below the L = 2 truncation error.
+  !> square of this (theory.md T5, bench/accuracy/solver_tolerance.md), far below the L = 2 truncation error.
   real(dp), parameter :: default_krylov_rtol = 1.0e-3_dp
-  !> The default shell: one surface layer. On the benchmark (bench/accuracy.md) it is on the
+  !> The default shell: one surface layer. On the benchmark (bench/accuracy/accuracy.md) it is on the
   !> Pareto front of every tuning shape, about 20 % cheaper than the full model, and its largest
   !> error against L = 3 (2.7e-3) is that of the full model (2.8e-3): at L = 2 the interior beads
   !> add truncation error (their contacts) and next to nothing to the rigid-body friction.
@@ -37,7 +37,7 @@ module beadmob_job_defaults
   !> order-L solve's with L (unknowns per bead (L - 1)/L), 1.2x the run at L = 2 and 3.
   integer, parameter :: default_estimate_order = 4
   !> The precorrected-FFT operator of off-lattice beads (pfft_operator.F90): interpolation points
-  !> per axis and the radius (d) within which pairs are exact (bench/offlattice.md: error and cost).
+  !> per axis and the radius (d) within which pairs are exact (bench/offlattice/offlattice.md: error and cost).
   integer, parameter :: default_pfft_stencil = 4
   real(dp), parameter :: default_pfft_near_radius = 3.0_dp
 contains

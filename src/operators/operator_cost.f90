@@ -1,6 +1,6 @@
 !> What an operator will cost before it is built (the operator part of the dry run,
 !> job_estimate.f90): the sizes of a job, the measured rates of this project's 2-core machine
-!> (bench/scaling.md, "Estimate against measurement"; another machine scales them by its speed),
+!> (bench/scaling/scaling.md, "Estimate against measurement"; another machine scales them by its speed),
 !> and the memory and time terms each operator reports through multipole_operator_t%cost.
 module beadmob_operator_cost
   use beadmob_kinds, only: dp, i8
@@ -17,7 +17,7 @@ module beadmob_operator_cost
   real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
   real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product
   !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
-  !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling.md).
+  !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling/scaling.md).
   real(dp), parameter :: transpose_fraction = 0.5_dp
 
   !> The sizes an operator's cost depends on.

@@ -10,7 +10,7 @@
 !> C (a sparse PETSc matrix, this rank's rows) makes the near pairs (|R_i - R_j| < near_radius,
 !> and i = j) exact: C_ij = A(R_i - R_j) - (the grid's approximation of it), the exact block
 !> from the axial table (axial_table.f90). Far pairs carry the interpolation error, controlled by
-!> p and near_radius (measured: bench/offlattice.md). Beads on the lattice get l = delta, C = 0 to
+!> p and near_radius (measured: bench/offlattice/offlattice.md). Beads on the lattice get l = delta, C = 0 to
 !> rounding and the lattice operator itself. Memory per rank: the FFT slab, I (nb (p+1)^3 entries
 !> per bead row) and C (nb^2 per near pair): O(N/P) for a fixed near radius.
 module beadmob_pfft_operator

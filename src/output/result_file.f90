@@ -1,4 +1,4 @@
-!> The result file of a run (schema in README.md, "Output"). Written collectively with
+!> The result file of a run (schema in docs/output.md). Written collectively with
 !> parallel HDF5 to '<output>.partial' and renamed to '<output>' only when complete, so a
 !> failed run never leaves a half-written result under the requested name.
 module beadmob_result_file
@@ -218,7 +218,7 @@ contains
     call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
     call write_attribute(group, 'krylov_rtol_setting', config%hydrodynamics%krylov_rtol, err)
     ! accuracy_target 0: none asked for; otherwise the choice and the error the data promise
-    ! (bench/accuracy.md, against the reference run named by accuracy_reference).
+    ! (bench/accuracy/accuracy.md, against the reference run named by accuracy_reference).
     call write_attribute(group, 'accuracy_target', hydro%accuracy%target, err)
     if (hydro%accuracy%target > 0.0_dp) then
       call write_attribute(group, 'accuracy_setting', trim(hydro%accuracy%setting), err)
@@ -289,7 +289,7 @@ contains
       return
     end if
     call write_attribute(group, 'error_estimate_method', 'order L against the companion of order L - 1 on the ' // &
-                         'same beads, factors fitted on bench/error_estimate.md (docs/theory.md T14)', err)
+                         'same beads, factors fitted on bench/error_estimate/error_estimate.md (docs/theory.md T14)', err)
     call write_attribute(group, 'error_measure', '|dM_ij| / sqrt(M_ii M_jj), body-frame mobility M', err)
     call write_attribute(group, 'error_estimate_factors', [entry_factor, block_factor, extrapolation_ratio, &
                                                            extrapolated_entry_factor, extrapolated_block_factor], err)

@@ -2,7 +2,7 @@
 !> The beads are identical, so every diagonal block of the operator is the same self block S
 !> (theory.md T6): applying S^-1 to all of this rank's beads is one matrix product
 !> (nb x nb) x (nb x n_local). No block-diagonal matrix is assembled or factorised, which the
-!> MUMPS route needs (method.md, "Preconditioning"); bench/preconditioners.md compares both.
+!> MUMPS route needs (method.md, "Preconditioning"); bench/preconditioners/preconditioners.md compares both.
 module beadmob_bead_block_preconditioner
 #include "petsc/finclude/petscksp.h"
   use petscksp

@@ -8,7 +8,7 @@
 !> fft_operator.F90, bead_operator.F90, pfft_operator.F90; the companion of the error bar,
 !> theory.md T14, while the order-L operator is still held). Time: the operator's set-up and
 !> product times (operator_cost.f90: rates measured on this project's 2-core machine,
-!> bench/scaling.md, "Estimate against measurement"), CG iterations ~ a N^0.17.
+!> bench/scaling/scaling.md, "Estimate against measurement"), CG iterations ~ a N^0.17.
 module beadmob_job_estimate
   use beadmob_kinds, only: dp, i8
   use beadmob_multipole_basis, only: basis_size
@@ -19,11 +19,11 @@ module beadmob_job_estimate
   private
   public :: job_estimate_t, estimate_job
 
-  ! Memory constants (bytes), fitted to the peak resident sets of bench/scaling.md.
+  ! Memory constants (bytes), fitted to the peak resident sets of bench/scaling/scaling.md.
   real(dp), parameter :: base_bytes = 45.0e6_dp          ! MPI, PETSc, HDF5, FFTW and the program itself
   real(dp), parameter :: geometry_bytes_per_bead = 120.0_dp   ! replicated positions, lattice, indexes
   real(dp), parameter :: vectors_per_unknown = 26.0_dp   ! 18 motion vectors + Krylov work + scatters
-  ! Largest CG iteration count of the solves, a N_solve^p: the full model (bench/scaling.md before
+  ! Largest CG iteration count of the solves, a N_solve^p: the full model (bench/scaling/scaling.md before
   ! the shell default: 18 at 1e3 to 37 at 1e5 beads) and the one-layer shell (11 at 354 beads in
   ! the solve to 18 at 4e4).
   real(dp), parameter :: full_iterations(2) = [5.2_dp, 0.17_dp], shell_iterations(2) = [6.0_dp, 0.104_dp]

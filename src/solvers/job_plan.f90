@@ -182,11 +182,11 @@ contains
   !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the one
   !> of the direct operator (exact blocks, N^2 / P of them per rank) and the precorrected FFT
   !> whose estimated wall time (job_estimate.f90, the dry run's cost model: set-up, solves and the
-  !> error bar's companion on n_ranks ranks) is the smaller (bench/pfft_crossover.md checks the
+  !> error bar's companion on n_ranks ranks) is the smaller (bench/offlattice/pfft_crossover.md checks the
   !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
   !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
   !> iterations pile up and an exact solve of a few thousand unknowns is cheap
-  !> (bench/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
+  !> (bench/offlattice/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
   !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
   !> the off-lattice choice.
   subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)

@@ -13,7 +13,7 @@
 !> Default relative tolerance 1e-3: with the variational friction the solver error of the paper's
 !> coefficients is then ~1e-4 (the paper cone: 7e-5), 30x below the truncation error of L = 2
 !> (0.2 % against L = 3), so a tighter default would cost time for no accuracy
-!> (bench/solver_tolerance.md). Every -ksp_/-pc_ option applies.
+!> (bench/accuracy/solver_tolerance.md). Every -ksp_/-pc_ option applies.
 module beadmob_rigid_body_solve
 #include "petsc/finclude/petscksp.h"
   use petscksp

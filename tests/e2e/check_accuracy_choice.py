@@ -1,18 +1,18 @@
 #!/usr/bin/env python3
 """check_accuracy_choice.py RESULT.h5 TARGET: a run with an accuracy target used the settings of
 the candidate it records (L, the sigma = 2 degree max(L - 2, 0), shell layers and the Krylov
-tolerance, as listed in bench/accuracy_rule.py) or, where its own error estimate missed the
+tolerance, as listed in bench/accuracy/accuracy_rule.py) or, where its own error estimate missed the
 target (docs/theory.md T14), the same tolerance one or more orders higher on the full model, at
 most L = 4 (src/solvers/accuracy_choice.f90); it recorded the target, and says the target is met
 exactly when its own estimate (or, without one, the rule's promise) is within it. Whether the
-promise holds on real shapes is measured by bench/accuracy_check.py and bench/error_estimate.py,
+promise holds on real shapes is measured by bench/accuracy/accuracy_check.py and bench/error_estimate/error_estimate.py,
 not here (this body is not in the tuning data)."""
 import sys
 from pathlib import Path
 
 import h5py
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench" / "accuracy"))
 from accuracy_rule import CANDIDATES  # noqa: E402
 
 MAX_ACCURACY_ORDER = 4   # src/solvers/accuracy_choice.f90

@@ -3,7 +3,7 @@
 picks the operator whose estimated wall time (the dry run's cost model, `-estimate`) is the
 smaller of the direct and the pfft operator's (job_plan.f90, choose_operator), and the dry run
 names it. Models: balls of lattice points scaled by 1.1 and jittered by up to 0.04 d (seed 7) of
-123 beads (the direct operator, measured faster at 100: bench/pfft_crossover.md) and 1419
+123 beads (the direct operator, measured faster at 100: bench/offlattice/pfft_crossover.md) and 1419
 beads (pfft, measured 4-7x faster at 1000-1500 beads there); only dry runs, nothing is solved."""
 import os
 import re

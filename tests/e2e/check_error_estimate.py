@@ -4,9 +4,9 @@ is in the result file and bounds the true error against a high-order reference.
 
 RUN.h5: the default settings (L = 2, one surface layer, tolerance 1e-3) on a small body;
 REFERENCE.h5: the same beads at L = 5 on the full model with a tight tolerance, whose own
-truncation error on small bodies is ~1e-4 (bench/l_convergence.md: L = 5 column), ten times below
+truncation error on small bodies is ~1e-4 (bench/accuracy/l_convergence.md: L = 5 column), ten times below
 the errors checked here. The estimate is statistical (it bounds 95 % of the coefficients of
-bench/error_estimate.md), so the checks are: the estimated error of the whole mobility (largest
+bench/error_estimate/error_estimate.md), so the checks are: the estimated error of the whole mobility (largest
 entry) bounds its true error and overestimates it less than tenfold; at least four of the five
 coefficients are bounded and none misses by more than twice its estimate; the extrapolated
 mobility is closer to the reference than the order-L one; the postprocessor's error bar equals

@@ -2,7 +2,7 @@
 """check_shell_model.py SHELL.h5 FULL.h5: the shell model (surface layer only) of a filled sphere
 against the full bead model. The rigid-body friction is carried by the surface traction, so the
 two must agree closely; the bound, 1 % on the translational and rotational friction, is well
-above what bench/accuracy.md measures for one layer and far below the change from dropping a
+above what bench/accuracy/accuracy.md measures for one layer and far below the change from dropping a
 surface layer instead (a sphere of radius 3 instead of 4: ~20 % in friction, Stokes' law ~ radius).
 Also: the shell run solved for fewer beads and records its layer count."""
 import sys

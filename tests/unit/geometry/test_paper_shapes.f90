@@ -24,8 +24,8 @@ program test_paper_shapes
                                                'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm']
   integer, parameter :: paper_counts(7) = [5088, 5513, 5104, 5182, 5106, 5110, 4870]
   ! Where the paper's text leaves the count open, the reading chosen by all the table's numbers
-  ! (shapes/README.md, bench/shape_readings.md): the crescent 2 beads short, the rings 0.5 to
-  ! 0.8 % over. Independent reference: the brute-force lattice counts of bench/shape_readings.py
+  ! (shapes/README.md, bench/shape_readings/shape_readings.md): the crescent 2 beads short, the rings 0.5 to
+  ! 0.8 % over. Independent reference: the brute-force lattice counts of bench/shape_readings/shape_readings.py
   ! (numpy, from the appendix's inequalities, arrowhead and rings) give the same numbers.
   integer, parameter :: documented_counts(7) = [5088, 5511, 5104, 5222, 5136, 5134, 4906]
   real(dp), parameter :: paper_lengths(7) = [21.0_dp, 55.0_dp, 29.0_dp, 67.0_dp, 73.0_dp, 81.0_dp, 85.0_dp]

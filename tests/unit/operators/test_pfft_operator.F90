@@ -15,7 +15,7 @@
 !>     beads (pfft operator) is R zeta R^T of the lattice run (FFT operator), R = diag(Q, Q), the
 !>     Galerkin method being exactly covariant; the pfft far field leaves 4.9e-4 on this small
 !>     slender body (2 x 2 x 8 and a foot; measured), checked to 1e-3 (2000-bead models: 2e-4 at
-!>     most, bench/offlattice.md).
+!>     most, bench/offlattice/offlattice.md).
 program test_offlattice
 #include "petsc/finclude/petscmat.h"
   use petscmat
