@@ -203,8 +203,11 @@ contains
       if (verify(value, '0123456789+-') > 0) status = 1
     end select
     if (option%kind /= switch .and. option%kind /= word .and. (status /= 0 .or. len(value) == 0)) then
-      call raise(err, '-' // trim(option%name) // ' needs ' // merge('a whole number', 'a number      ', &
-                 option%kind == integer_number) // ", got '" // value // "'")
+      if (option%kind == integer_number) then
+        call raise(err, '-' // trim(option%name) // " needs a whole number, got '" // value // "'")
+      else
+        call raise(err, '-' // trim(option%name) // " needs a number, got '" // value // "'")
+      end if
       return
     end if
     associate (job => config%hydrodynamics)

@@ -16,14 +16,15 @@ module beadmob_friction_job
   use beadmob_near_field_matrix, only: assemble_near_field
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, make_bead_block_preconditioner
   use beadmob_resources, only: peak_resident_bytes
-  use beadmob_rigid_body_solve, only: rigid_body_friction, solve_statistics_t, solve_control_t
+  use beadmob_rigid_body_solve, only: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, &
+                                      find_symmetry, solve_motions, keep_solution_part, bead_forces_of_solutions, &
+                                      destroy_motion_solver
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
-  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, destroy_motion_symmetry
   use beadmob_friction_settings, only: friction_settings_t
   use beadmob_job_plan, only: job_plan_t, make_job_plan
   implicit none
@@ -74,7 +75,7 @@ module beadmob_friction_job
     !> Peak resident set size reached by the end of each phase, max over ranks (the peak is
     !> monotonic: a phase's own need shows as the step from the previous phase)
     real(dp) :: phase_peak_memory_bytes(size(phase_names) - 1) = 0.0_dp
-    !> With settings%bead_forces: (36, this rank's beads), see rigid_body_friction.
+    !> With settings%bead_forces: (36, this rank's beads), see bead_forces_of_solutions.
     real(dp), allocatable :: bead_forces(:, :)
     !> The companion of order L - 1 (companion_order 0: none was solved): its friction with the
     !> lubrication correction of its order when that is on, the order-(L - 1) friction alone,
@@ -157,12 +158,11 @@ contains
     class(multipole_operator_t), allocatable, target :: op
     type(operator_options_t) :: options
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
-    type(motion_symmetry_t), allocatable :: symmetry
-    Vec :: layout
+    type(motion_solver_t) :: solver
     real(dp), allocatable :: projection(:, :), self(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix, near_field
-    integer(i8) :: first, count, local_pairs8
+    integer(i8) :: first, count
     integer :: local_pairs, phase
     PetscErrorCode :: ierr   ! also the MPI error code (both default integers)
     PetscLogStage :: stages(size(phase_names) - 1)
@@ -172,8 +172,7 @@ contains
     type(multipole_basis_t) :: low
     integer, allocatable :: unknowns(:)
     real(dp), allocatable :: low_start(:, :)
-    type(solve_control_t) :: control
-    logical :: report, with_companion, own_near_field
+    logical :: report, with_companion, own_near_field, solver_made
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
@@ -206,6 +205,7 @@ contains
     if (with_companion) options%companion_unknowns = companion_unknowns(basis)
     call new_operator(result%operator_name, op)
     own_near_field = .false.
+    solver_made = .false.
     ! Every failure leaves the block through one exit below (the operator released, the phase's
     ! -log_view stage closed); each is agreed on by the ranks, or the same on every rank.
     job: block
@@ -225,57 +225,36 @@ contains
 
       result%near_field_radius = settings%near_field_radius
       result%near_field_cluster = settings%near_field_cluster
-      if (op%assembled) then
-        ! The dense operator: its own Cholesky factorisation is the exact solve (rigid_body_friction
-        ! factorises the preconditioning matrix with MUMPS).
-        near_field = matrix
-        result%near_field_pairs = 0
-      else if (settings%near_field_radius < 1.0_dp .and. settings%near_field_cluster < 2) then
-        ! No pair blocks: the single-bead blocks need no assembled matrix.
-        allocate (bead_blocks)
-        call make_bead_block_preconditioner(self, bead_blocks, err)
-        if (err%failed) exit job   ! the same self block on every rank
-        near_field = matrix
-        result%near_field_pairs = 0
-      else
-        call assemble_near_field(ctx%comm, basis, self, centres, first, count, settings%near_field_radius, &
-                                 settings%near_field_cluster, near_field, local_pairs8)
-        own_near_field = .true.
-        call MPI_Allreduce(local_pairs8, result%near_field_pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
-      end if
+      call precondition(op, basis, self, settings%near_field_radius, settings%near_field_cluster, bead_blocks, near_field, &
+                        own_near_field, result%near_field_pairs, err)
+      if (err%failed) exit job   ! the same self block on every rank
       call mark(2)
 
-      ! (An exact solve costs a triangular solve per motion: no symmetries are looked for.)
-      if (settings%use_symmetry .and. .not. op%assembled) then
-        allocate (symmetry)
-        PetscCallA(MatCreateVecs(matrix, layout, PETSC_NULL_VEC, ierr))
-        call find_motion_symmetry(ctx%comm, basis, centres, reference_point, first, count, layout, symmetry, err)
-        PetscCallA(VecDestroy(layout, ierr))
-        call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
-        if (err%failed) exit job
-        result%symmetry_group_order = symmetry%group_order
+      call create_motion_solver(solver, ctx%comm, matrix, near_field, basis%size, size(centres, 2, kind=i8), first, count, &
+                                settings%krylov_rtol, 'solve', report, bead_blocks)
+      solver_made = .true.
+      if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
+        checkpoint_key(settings, centres, reference_point, basis%size, result%operator_name))
+      solver%stop_after_solves = settings%stop_after_solves
+      call solve_level(solver, op, basis, projection, result%multipole_friction, result%solves, err)
+      if (err%failed) exit job   ! the test stop: the same solve count on every rank
+      call mask_uncomputed(result%solves, result%multipole_friction)
+      if (allocated(solver%symmetry)) result%symmetry_group_order = solver%symmetry%group_order
+      if (settings%bead_forces) then
+        allocate (result%bead_forces(36, count))
+        call bead_forces_of_solutions(solver, projection, result%bead_forces)
       end if
-      ! Unallocated optional arguments count as absent (Fortran 2008).
-      if (settings%bead_forces) allocate (result%bead_forces(36, count))
-      control%progress = report
-      control%stop_after_solves = settings%stop_after_solves
-      control%checkpoint_file = trim(settings%checkpoint_file)
-      if (len(control%checkpoint_file) > 0) control%checkpoint_key = checkpoint_key(settings, centres, reference_point, &
-                                                                                   basis%size, result%operator_name)
       if (with_companion) then
-        ! The companion's basis now: the order-L solves keep their order L - 1 part as its start.
+        ! The companion's start: the order L - 1 part of the order-L solutions.
         call companion_orders(settings%multipole_order, settings%potential_order, result%companion_order, &
                               result%companion_potential_order)
         low = make_multipole_basis(result%companion_order, result%companion_potential_order)
         unknowns = companion_unknowns(basis)
         allocate (low_start(size(unknowns) * count, 6))
+        call keep_solution_part(solver, unknowns, low_start)
       end if
-      call rigid_body_friction(ctx%comm, matrix, near_field, projection, centres, first, count, reference_point, &
-                               settings%krylov_rtol, result%multipole_friction, result%solves, result%bead_forces, bead_blocks, &
-                               symmetry, settings%motions, control, err, unknowns, low_start)
-      if (allocated(symmetry)) call destroy_motion_symmetry(symmetry)
-      if (err%failed) exit job   ! the test stop: the same solve count on every rank
-      call mask_uncomputed(result%solves, result%multipole_friction)
+      call destroy_motion_solver(solver)
+      solver_made = .false.
       call mark(3)
 
       if (with_companion) call companion_friction(err)
@@ -297,6 +276,7 @@ contains
       call mark(5)
     end block job
     if (err%failed) then
+      if (solver_made) call destroy_motion_solver(solver)
       if (allocated(op)) call release_operator()
       PetscCallA(PetscLogStagePop(ierr))
       return
@@ -316,45 +296,83 @@ contains
       type(error_t), intent(inout) :: err
       class(multipole_operator_t), allocatable, target :: low_op
       type(bead_block_preconditioner_t), allocatable, target :: low_blocks
-      type(motion_symmetry_t), allocatable :: low_symmetry
-      type(solve_control_t) :: low_control
-      Mat :: low_matrix
+      type(motion_solver_t) :: low_solver
+      Mat :: low_preconditioning
+      logical :: low_own_near_field
+      integer(i8) :: no_pairs
 
       result%companion_unknowns_per_bead = low%size
       call progress_line(report, 'phase companion: order L = ' // str(result%companion_order) // ', ' // &
                          str(low%size) // ' unknowns per bead, for the error estimate')
       call op%create_companion(ctx%comm, unknowns, low_op, err)
       call agree_on_error(ctx, err)
-      if (err%failed) then
-        call low_op%destroy()
-        return
-      end if
-      low_matrix = low_op%matrix
-      ! The dense operator's own Cholesky factorisation (MUMPS) is the exact solve, as for order L;
-      ! otherwise the single-bead blocks (an unallocated low_blocks counts as absent below).
-      if (.not. low_op%assembled) then
-        allocate (low_blocks)
-        call make_bead_block_preconditioner(self(unknowns, unknowns), low_blocks, err)
-      end if
-      if (.not. err%failed .and. settings%use_symmetry .and. .not. low_op%assembled) then
-        allocate (low_symmetry)
-        PetscCallA(MatCreateVecs(low_matrix, layout, PETSC_NULL_VEC, ierr))
-        call find_motion_symmetry(ctx%comm, low, centres, reference_point, first, count, layout, low_symmetry, err)
-        PetscCallA(VecDestroy(layout, ierr))
-        call agree_on_error(ctx, err)
+      if (.not. err%failed) then
+        ! As for order L, without pair blocks: the dense operator's own factorisation, else the
+        ! single-bead blocks.
+        call precondition(low_op, low, self(unknowns, unknowns), 0.0_dp, 0, low_blocks, low_preconditioning, &
+                          low_own_near_field, no_pairs, err)
       end if
       if (.not. err%failed) then
-        low_control%progress = report
-        low_control%label = 'companion solve'
-        call rigid_body_friction(ctx%comm, low_matrix, low_matrix, projection(unknowns, :), centres, first, count, &
-                                 reference_point, settings%krylov_rtol, result%companion_multipole_friction, &
-                                 result%companion_solves, bead_blocks=low_blocks, symmetry=low_symmetry, &
-                                 requested=settings%motions, control=low_control, initial_guess=low_start)
-        call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
+        call create_motion_solver(low_solver, ctx%comm, low_op%matrix, low_preconditioning, low%size, &
+                                  size(centres, 2, kind=i8), first, count, settings%krylov_rtol, 'companion solve', &
+                                  report, low_blocks)
+        call move_alloc(low_start, low_solver%initial_guess)
+        call solve_level(low_solver, low_op, low, projection(unknowns, :), result%companion_multipole_friction, &
+                         result%companion_solves, err)
+        if (.not. err%failed) call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
+        call destroy_motion_solver(low_solver)
       end if
-      if (allocated(low_symmetry)) call destroy_motion_symmetry(low_symmetry)
       call low_op%destroy()
     end subroutine companion_friction
+
+    !> Collective. The motions of one level (order L or its companion) with `level_solver`: the
+    !> symmetries of the beads in `level_basis` (none for an operator solved exactly, whose
+    !> factorisation costs a triangular solve per motion), then the requested motions' solves and
+    !> their friction.
+    subroutine solve_level(level_solver, level_op, level_basis, level_projection, friction, stats, err)
+      type(motion_solver_t), intent(inout) :: level_solver
+      class(multipole_operator_t), intent(in) :: level_op
+      type(multipole_basis_t), intent(in) :: level_basis
+      real(dp), intent(in) :: level_projection(:, :)
+      real(dp), intent(out) :: friction(6, 6)
+      type(solve_statistics_t), intent(out) :: stats
+      type(error_t), intent(inout) :: err
+      if (settings%use_symmetry .and. .not. level_op%assembled) then
+        call find_symmetry(level_solver, level_basis, centres, reference_point, err)
+        if (err%failed) return
+      end if
+      call solve_motions(level_solver, level_projection, centres, reference_point, settings%motions, friction, stats, err)
+    end subroutine solve_level
+
+    !> The preconditioner of an operator: its own Cholesky factorisation when it is assembled (the
+    !> dense operator, by MUMPS in the solver), the single-bead blocks (`blocks` allocated) when no
+    !> pair is within `radius` (d) or the same `cluster` cube, else the assembled near-field
+    !> matrix of those pairs (`owned`: to be destroyed with the operator).
+    subroutine precondition(level_op, level_basis, self_block, radius, cluster, blocks, preconditioning, owned, pairs, err)
+      class(multipole_operator_t), intent(in) :: level_op
+      type(multipole_basis_t), intent(in) :: level_basis
+      real(dp), intent(in) :: self_block(:, :), radius
+      integer, intent(in) :: cluster
+      type(bead_block_preconditioner_t), allocatable, intent(inout) :: blocks
+      Mat, intent(out) :: preconditioning
+      logical, intent(out) :: owned
+      integer(i8), intent(out) :: pairs
+      type(error_t), intent(inout) :: err
+      integer(i8) :: local_pairs
+      owned = .false.
+      pairs = 0
+      preconditioning = level_op%matrix
+      if (level_op%assembled) return
+      if (radius < 1.0_dp .and. cluster < 2) then
+        allocate (blocks)
+        call make_bead_block_preconditioner(self_block, blocks, err)
+      else
+        call assemble_near_field(ctx%comm, level_basis, self_block, centres, first, count, radius, cluster, &
+                                 preconditioning, local_pairs)
+        owned = .true.
+        call MPI_Allreduce(local_pairs, pairs, 1, MPI_INTEGER8, MPI_SUM, ctx%comm, ierr)
+      end if
+    end subroutine precondition
 
     !> friction += the lubrication correction of order (order, potential_order): every rank gets
     !> the same small table (kept in `table`), the pair sum is split by rows.

@@ -23,7 +23,8 @@ module beadmob_rigid_body_solve
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
-  use beadmob_motion_symmetry, only: motion_symmetry_t, derive_solution
+  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry
+  use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
@@ -33,7 +34,8 @@ module beadmob_rigid_body_solve
                                      fnv1a_hex, checkpoint_matches, checkpoint_other_key
   implicit none
   private
-  public :: solve_statistics_t, solve_control_t, rigid_body_friction, motion_names
+  public :: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, find_symmetry, solve_motions, &
+            keep_solution_part, bead_forces_of_solutions, destroy_motion_solver, motion_names
 
   character(len=*), parameter :: motion_names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
 
@@ -65,21 +67,40 @@ module beadmob_rigid_body_solve
     real(dp) :: solver_error_bound = -1.0_dp
   end type solve_statistics_t
 
-  !> How the solves report and save (friction_job.F90 fills it from its settings).
-  type :: solve_control_t
-    !> Rank 0 prints a progress line per solve (the caller passes .false. on other ranks)
+  !> The Krylov solver of the rigid-motion systems A q_m = c_m of one operator: its KSP and
+  !> preconditioner, the six right-hand sides, solutions and residuals, the symmetries it derives
+  !> motions by, how it reports and what it saves. Made by create_motion_solver, set up further
+  !> by use_checkpoint, find_symmetry and its public components, run by solve_motions, read by
+  !> keep_solution_part and bead_forces_of_solutions, released by destroy_motion_solver.
+  type :: motion_solver_t
+    type(run_context_t) :: ctx
+    Mat :: matrix
+    KSP :: ksp
+    PC :: pc
+    !> The preconditioner is the single-bead blocks (a PCSHELL), not a factorisation
+    logical :: single_bead_blocks = .false.
+    Vec :: template, preconditioned
+    Vec :: rhs(6), solution(6), residual(6)
+    integer :: nb = 0                              ! unknowns per bead
+    integer(i8) :: first_bead = 1, n_local = 0, n_total = 0
+    !> Rank 0 prints a progress line per solve, beginning with `label` (e.g. 'companion solve')
     logical :: progress = .false.
-    !> Checkpoint file of the solved motions (checkpoint_file.f90); '' = none
-    character(len=:), allocatable :: checkpoint_file
-    !> Everything the solutions depend on but the Krylov settings, which are added here (the ones
-    !> actually used, after -ksp_ / -pc_ options)
-    character(len=:), allocatable :: checkpoint_key
+    character(len=:), allocatable :: label
+    !> Checkpoint of the solved motions (checkpoint_file.f90; '' = none) and its key: what the
+    !> solutions depend on, the Krylov settings actually used included (use_checkpoint)
+    character(len=:), allocatable :: checkpoint_file, key
+    logical :: saving = .false.
+    logical :: loaded(6) = .false.
+    type(saved_solve_t) :: saved(6)
     !> A test of the resume: stop with an error right after this many solves have been saved,
     !> as a kill at a wall-time limit would (0 = never)
     integer :: stop_after_solves = 0
-    !> First word(s) of the progress lines, e.g. 'companion solve' (friction_job.F90)
-    character(len=40) :: label = 'solve'
-  end type solve_control_t
+    !> Allocated (nb n_local x 6): each solve starts from its column instead of zero (the
+    !> companion from the order-L solution, friction_job.F90)
+    real(dp), allocatable :: initial_guess(:, :)
+    !> Allocated by find_symmetry: the motions that follow from others are derived, not solved
+    type(motion_symmetry_t), allocatable :: symmetry
+  end type motion_solver_t
 
   !> A loaded solution must give the true residual it was saved with (to rounding, which varies
   !> with the number of ranks): otherwise it does not solve this run's system and is solved again.
@@ -87,54 +108,114 @@ module beadmob_rigid_body_solve
 
 contains
 
-  !> Collective. `centres` holds all beads; this rank owns beads first..first+n_local-1, with
-  !> nb = size(projection, 1) unknowns each. projection(:, m): the basis projection of unit motion
-  !> m of one bead about its centre (its transpose gives force and torque from the multipoles).
-  !> bead_forces, when present (36 x n_local): column i holds, for motion m = 1..6, the force and
-  !> torque (about its centre) that bead first+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
-  !> bead_blocks, when present, is the preconditioner (preconditioning_matrix then unused).
-  !> symmetry, when present, names the motions that follow from others: they are not solved.
-  !> requested, when present, names the motions to compute (with the sources of requested
-  !> derived ones); friction(m, n) = c_m . q_n for m not computed, n computed (first order in
-  !> the solver error, the variational form needs q_m), and 0 where neither is computed.
-  !> control, when present, asks for progress lines, the checkpoint and the test stop; err is then
-  !> needed too (the test stop and nothing else raises it, the same on every rank).
-  !> kept_unknowns and kept (size(kept_unknowns) n_local x 6), when present: the solutions'
-  !> entries of those unknowns per bead are copied to kept (e.g. the order L - 1 part of an order-L
-  !> solution); initial_guess (nb n_local x 6), when present, starts each solve from its column
-  !> instead of zero (the companion solve from the order-L solution, friction_job.F90).
-  subroutine rigid_body_friction(comm, matrix, preconditioning_matrix, projection, centres, first_bead, n_local, &
-                                 reference_point, relative_tolerance, friction, stats, bead_forces, bead_blocks, &
-                                 symmetry, requested, control, err, kept_unknowns, kept, initial_guess)
+  !> Collective. The solver of `matrix` (nb unknowns per bead; this rank owns beads
+  !> first_bead..first_bead+n_local-1 of n_total): CG (theory.md T6) with the single-bead blocks
+  !> when bead_blocks is given (preconditioning_matrix then unused), else the Cholesky
+  !> factorisation by MUMPS of preconditioning_matrix; relative_tolerance unless -ksp_rtol is
+  !> given. Every -ksp_/-pc_ option applies. bead_blocks must outlive the solver.
+  subroutine create_motion_solver(solver, comm, matrix, preconditioning_matrix, nb, n_total, first_bead, n_local, &
+                                  relative_tolerance, label, progress, bead_blocks)
+    type(motion_solver_t), intent(out) :: solver
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
-    real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
-    integer(i8), intent(in) :: first_bead, n_local
-    !> Krylov relative tolerance (-ksp_rtol on the command line overrides it; the one used is
-    !> recorded in stats)
+    integer, intent(in) :: nb
+    integer(i8), intent(in) :: n_total, first_bead, n_local
     real(dp), intent(in) :: relative_tolerance
+    character(len=*), intent(in) :: label
+    logical, intent(in) :: progress
+    type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
+    PetscErrorCode :: ierr
+    integer :: motion
+
+    solver%ctx = make_run_context(comm)
+    solver%matrix = matrix
+    solver%nb = nb
+    solver%n_total = n_total
+    solver%first_bead = first_bead
+    solver%n_local = n_local
+    solver%label = label
+    solver%progress = progress
+    solver%checkpoint_file = ''
+    PetscCallA(KSPCreate(comm, solver%ksp, ierr))
+    PetscCallA(KSPSetType(solver%ksp, KSPCG, ierr))
+    PetscCallA(KSPGetPC(solver%ksp, solver%pc, ierr))
+    solver%single_bead_blocks = present(bead_blocks)
+    if (present(bead_blocks)) then
+      PetscCallA(KSPSetOperators(solver%ksp, matrix, matrix, ierr))
+      call attach_bead_block_preconditioner(solver%pc, bead_blocks)
+    else
+      PetscCallA(KSPSetOperators(solver%ksp, matrix, preconditioning_matrix, ierr))
+      PetscCallA(PCSetType(solver%pc, PCCHOLESKY, ierr))
+      PetscCallA(PCFactorSetMatSolverType(solver%pc, MATSOLVERMUMPS, ierr))
+    end if
+    PetscCallA(KSPSetTolerances(solver%ksp, relative_tolerance, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCallA(KSPSetFromOptions(solver%ksp, ierr))
+    ! The Lanczos coefficients that CG has anyway give the spectrum's ends (the error bound).
+    PetscCallA(KSPSetComputeSingularValues(solver%ksp, PETSC_TRUE, ierr))
+    ! The preconditioner set up now: the bound applies it to resumed and derived motions too.
+    PetscCallA(KSPSetUp(solver%ksp, ierr))
+    PetscCallA(MatCreateVecs(matrix, solver%template, PETSC_NULL_VEC, ierr))
+    PetscCallA(VecDuplicate(solver%template, solver%preconditioned, ierr))
+    do motion = 1, 6
+      PetscCallA(VecDuplicate(solver%template, solver%rhs(motion), ierr))
+      PetscCallA(VecDuplicate(solver%template, solver%solution(motion), ierr))
+      PetscCallA(VecDuplicate(solver%template, solver%residual(motion), ierr))
+    end do
+  end subroutine create_motion_solver
+
+  !> Save each solved motion to checkpoint_file and resume from it: job_key is everything the
+  !> solutions depend on but the Krylov settings, which are added here (the ones actually used,
+  !> after -ksp_ / -pc_ options). An empty file name: no checkpoint.
+  subroutine use_checkpoint(solver, checkpoint_file, job_key)
+    type(motion_solver_t), intent(inout) :: solver
+    character(len=*), intent(in) :: checkpoint_file, job_key
+    KSPType :: ksp_type
+    PCType :: pc_type
+    PetscReal :: rtol, abstol, dtol
+    PetscInt :: max_iterations
+    PetscErrorCode :: ierr
+    solver%checkpoint_file = checkpoint_file
+    solver%saving = len(checkpoint_file) > 0
+    if (.not. solver%saving) return
+    PetscCallA(KSPGetType(solver%ksp, ksp_type, ierr))
+    PetscCallA(PCGetType(solver%pc, pc_type, ierr))
+    PetscCallA(KSPGetTolerances(solver%ksp, rtol, abstol, dtol, max_iterations, ierr))
+    solver%key = job_key // 'krylov: ' // trim(ksp_type) // ', preconditioner ' // trim(pc_type) // &
+                 ', rtol ' // real_text(rtol) // ', abstol ' // real_text(abstol) // ', dtol ' // real_text(dtol) // &
+                 ', max_it ' // str(int(max_iterations)) // new_line('a')
+  end subroutine use_checkpoint
+
+  !> Collective. The symmetries of the bead set `centres` about reference_point in `basis`
+  !> (motion_symmetry.F90): the motions they give are derived from others by solve_motions.
+  subroutine find_symmetry(solver, basis, centres, reference_point, err)
+    type(motion_solver_t), intent(inout) :: solver
+    type(multipole_basis_t), intent(in) :: basis
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    type(error_t), intent(inout) :: err
+    allocate (solver%symmetry)
+    call find_motion_symmetry(solver%ctx%comm, basis, centres, reference_point, solver%first_bead, solver%n_local, &
+                              solver%template, solver%symmetry, err)
+    ! The same replicated centres everywhere: only a resource failure differs.
+    call agree_on_error(solver%ctx, err)
+  end subroutine find_symmetry
+
+  !> Collective. The requested rigid motions about reference_point (with the sources of derived
+  !> ones), solved, derived by the symmetries or resumed from the checkpoint, and the friction
+  !> zeta_mn = c_m . q_n + q_m . r_n between them. projection(:, m): the basis projection of unit
+  !> motion m of one bead about its centre (its transpose gives force and torque from the
+  !> multipoles); `centres` holds all beads. friction(m, n) = c_m . q_n for m not computed, n
+  !> computed (first order in the solver error, the variational form needs q_m), and 0 where
+  !> neither is. err: only the test stop (-stop_after_solves), the same on every rank.
+  subroutine solve_motions(solver, projection, centres, reference_point, requested, friction, stats, err)
+    type(motion_solver_t), intent(inout) :: solver
+    real(dp), intent(in) :: projection(:, :), centres(:, :), reference_point(3)
+    logical, intent(in) :: requested(6)
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
-    real(dp), intent(out), optional :: bead_forces(:, :)
-    type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
-    type(motion_symmetry_t), intent(in), optional :: symmetry
-    logical, intent(in), optional :: requested(6)
-    type(solve_control_t), intent(in), optional :: control
-    type(error_t), intent(inout), optional :: err
-    integer, intent(in), optional :: kept_unknowns(:)
-    real(dp), intent(out), optional :: kept(:, :)
-    real(dp), intent(in), optional :: initial_guess(:, :)
-    logical :: computed(6), loaded(6), saving, report
-    type(saved_solve_t) :: saved(6)
-    type(run_context_t) :: ctx
-    character(len=:), allocatable :: checkpoint_file, key, label
+    type(error_t), intent(inout) :: err
+    logical :: computed(6)
     real(dp) :: solve_seconds, started
     integer :: solves_done, solves_planned
-    real(dp), target :: no_columns(size(projection, 1), 0)
-    KSP :: ksp
-    PC :: pc
-    Vec :: template, preconditioned
-    Vec, allocatable :: rhs(:), solution(:), residual(:)
     PetscErrorCode :: ierr
     PetscScalar, pointer :: values(:)
     PetscReal :: rhs_norm, residual_norm, rtol, abstol, dtol, largest_value, smallest_value
@@ -143,85 +224,37 @@ contains
     KSPType :: ksp_type
     PCType :: pc_type
     real(dp) :: arm(3), plain(6, 6), correction(6, 6), residual_square, rhs_square
-    integer(i8) :: i, bead, n_total
+    integer(i8) :: i, bead
     integer :: motion, other, nb
 
-    nb = size(projection, 1)
-    n_total = size(centres, 2, kind=i8)
-    ctx = make_run_context(comm)
-    if (present(kept)) kept = 0.0_dp   ! motions not computed
-    report = .false.
-    checkpoint_file = ''
-    label = 'solve'
-    if (present(control)) then
-      report = control%progress
-      label = trim(control%label)
-      if (allocated(control%checkpoint_file)) checkpoint_file = control%checkpoint_file
+    nb = solver%nb
+    if (allocated(solver%initial_guess)) then
+      PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, PETSC_TRUE, ierr))
     end if
-    PetscCallA(KSPCreate(comm, ksp, ierr))
-    PetscCallA(KSPSetType(ksp, KSPCG, ierr))
-    PetscCallA(KSPGetPC(ksp, pc, ierr))
-    if (present(bead_blocks)) then
-      PetscCallA(KSPSetOperators(ksp, matrix, matrix, ierr))
-      call attach_bead_block_preconditioner(pc, bead_blocks)
-    else
-      PetscCallA(KSPSetOperators(ksp, matrix, preconditioning_matrix, ierr))
-      PetscCallA(PCSetType(pc, PCCHOLESKY, ierr))
-      PetscCallA(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS, ierr))
-    end if
-    PetscCallA(KSPSetTolerances(ksp, relative_tolerance, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
-    PetscCallA(KSPSetFromOptions(ksp, ierr))
-    ! The Lanczos coefficients that CG has anyway give the spectrum's ends (the error bound).
-    PetscCallA(KSPSetComputeSingularValues(ksp, PETSC_TRUE, ierr))
-    ! The preconditioner set up now: the bound applies it to resumed and derived motions too.
-    PetscCallA(KSPSetUp(ksp, ierr))
-    if (present(initial_guess)) then
-      PetscCallA(KSPSetInitialGuessNonzero(ksp, PETSC_TRUE, ierr))
-    end if
-    PetscCallA(MatCreateVecs(matrix, template, PETSC_NULL_VEC, ierr))
-    allocate (rhs(6), solution(6), residual(6))
-    PetscCallA(VecDuplicate(template, preconditioned, ierr))
+    if (allocated(solver%symmetry)) stats%source = solver%symmetry%source
+    computed = requested
     do motion = 1, 6
-      PetscCallA(VecDuplicate(template, rhs(motion), ierr))
-      PetscCallA(VecDuplicate(template, solution(motion), ierr))
-      PetscCallA(VecDuplicate(template, residual(motion), ierr))
+      if (requested(motion) .and. stats%source(motion) > 0) computed(stats%source(motion)) = .true.
     end do
+    do motion = 1, 6   ! a source left out: its derived motions are solved themselves
+      if (stats%source(motion) > 0) then
+        if (.not. computed(stats%source(motion))) stats%source(motion) = 0
+      end if
+    end do
+    where (.not. computed) stats%source = -1
 
-    if (present(symmetry)) stats%source = symmetry%source
-    computed = .true.
-    if (present(requested)) then
-      computed = requested
-      do motion = 1, 6
-        if (requested(motion) .and. stats%source(motion) > 0) computed(stats%source(motion)) = .true.
-      end do
-      do motion = 1, 6   ! a source left out: its derived motions are solved themselves
-        if (stats%source(motion) > 0) then
-          if (.not. computed(stats%source(motion))) stats%source(motion) = 0
-        end if
-      end do
-      where (.not. computed) stats%source = -1
-    end if
-
-    ! The checkpoint's key: the caller's part and the Krylov settings actually used.
-    saving = len(checkpoint_file) > 0
-    loaded = .false.
-    if (saving) then
-      PetscCallA(KSPGetType(ksp, ksp_type, ierr))
-      PetscCallA(PCGetType(pc, pc_type, ierr))
-      PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
-      key = control%checkpoint_key // 'krylov: ' // trim(ksp_type) // ', preconditioner ' // trim(pc_type) // &
-            ', rtol ' // real_text(rtol) // ', abstol ' // real_text(abstol) // ', dtol ' // real_text(dtol) // &
-            ', max_it ' // str(int(max_iterations)) // new_line('a')
-      call load_checkpoint()
-    end if
-    solves_planned = count(stats%source == 0 .and. .not. loaded)
+    solver%loaded = .false.
+    if (solver%saving) call load_checkpoint(solver, stats%source)
+    solves_planned = count(stats%source == 0 .and. .not. solver%loaded)
     solves_done = 0
     solve_seconds = 0.0_dp
+    associate (rhs => solver%rhs, solution => solver%solution, residual => solver%residual, &
+               loaded => solver%loaded, saved => solver%saved, label => solver%label)
     do motion = 1, 6
       ! c_i = projection (U_i, Omega_i), U_i = V + w x (R_i - R_0), Omega_i = w.
       PetscCallA(VecGetArrayF90(rhs(motion), values, ierr))
-      do i = 1, n_local
-        bead = first_bead + i - 1
+      do i = 1, solver%n_local
+        bead = solver%first_bead + i - 1
         arm = centres(:, bead) - reference_point
         values(nb * (i - 1) + 1:nb * i) = matmul(projection, rigid_velocity(motion, arm))
       end do
@@ -236,7 +269,7 @@ contains
         cycle
       else if (stats%source(motion) > 0) then
         ! Derived, not solved; its true residual below checks it like a solved one.
-        call derive_solution(symmetry, motion, solution(stats%source(motion)), solution(motion))
+        call derive_solution(solver%symmetry, motion, solution(stats%source(motion)), solution(motion))
         iterations = 0
         reason = stats%converged_reason(stats%source(motion))
         call true_residual(motion)
@@ -246,67 +279,50 @@ contains
         reason = saved(motion)%converged_reason
         call true_residual(motion)
         if (.not. same_residual(stats%true_relative_residual(motion), saved(motion)%true_relative_residual)) then
-          if (ctx%rank == 0) write (error_unit, '(a, es9.2, a, es9.2, a)') 'beadmob: warning: checkpoint ''' // &
-            checkpoint_file // ''': motion ' // motion_names(motion) // ' gives the true relative residual', &
+          if (solver%ctx%rank == 0) write (error_unit, '(a, es9.2, a, es9.2, a)') 'beadmob: warning: checkpoint ''' // &
+            solver%checkpoint_file // ''': motion ' // motion_names(motion) // ' gives the true relative residual', &
             stats%true_relative_residual(motion), ' instead of the saved', saved(motion)%true_relative_residual, &
             '; solved again'
           loaded(motion) = .false.
           solves_planned = solves_planned + 1
         else
-          call progress_line(report, label // ' ' // motion_names(motion) // ': resumed from the checkpoint')
+          call progress_line(solver%progress, label // ' ' // motion_names(motion) // ': resumed from the checkpoint')
         end if
       end if
       if (stats%source(motion) == 0 .and. .not. loaded(motion)) then
         started = MPI_Wtime()
-        if (present(initial_guess)) then
+        if (allocated(solver%initial_guess)) then
           PetscCallA(VecGetArrayF90(solution(motion), values, ierr))
-          values = initial_guess(:, motion)
+          values = solver%initial_guess(:, motion)
           PetscCallA(VecRestoreArrayF90(solution(motion), values, ierr))
         else
           PetscCallA(VecZeroEntries(solution(motion), ierr))
         end if
-        PetscCallA(KSPSolve(ksp, rhs(motion), solution(motion), ierr))
-        PetscCallA(KSPGetIterationNumber(ksp, iterations, ierr))
-        PetscCallA(KSPGetConvergedReason(ksp, reason, ierr))
-        PetscCallA(KSPComputeExtremeSingularValues(ksp, largest_value, smallest_value, ierr))
+        PetscCallA(KSPSolve(solver%ksp, rhs(motion), solution(motion), ierr))
+        PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
+        PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
+        PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
         if (smallest_value > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, &
                                                                     largest_value / smallest_value)
         call true_residual(motion)
         saved(motion) = saved_solve_t(int(iterations), int(reason), stats%true_relative_residual(motion))
         ! Saved at once: a kill from here on loses nothing of this solve.
-        if (saving) call save_checkpoint(motion)
+        if (solver%saving) call save_checkpoint(solver, motion, stats%source)
         solves_done = solves_done + 1
         solve_seconds = solve_seconds + (MPI_Wtime() - started)
-        call progress_line(report, label // ' ' // motion_names(motion) // ': ' // str(int(iterations)) // &
+        call progress_line(solver%progress, label // ' ' // motion_names(motion) // ': ' // str(int(iterations)) // &
                            ' iterations, ' // progress_seconds(MPI_Wtime() - started) // ' s; ' // &
                            str(solves_planned - solves_done) // ' solves left, ~' // &
                            progress_seconds(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
-        if (present(control) .and. present(err)) then
-          if (solves_done == control%stop_after_solves) then
-            ! Every rank counts the same solves: they all stop here together.
-            call raise(err, 'stopped after ' // str(solves_done) // ' solves as -stop_after_solves asks (a test ' // &
-                       'of the resume)' // saved_where())
-            call release()
-            return
-          end if
+        if (solves_done == solver%stop_after_solves) then
+          ! Every rank counts the same solves: they all stop here together.
+          call raise(err, 'stopped after ' // str(solves_done) // ' solves as -stop_after_solves asks (a test ' // &
+                     'of the resume)' // saved_where())
+          return
         end if
       end if
       stats%iterations(motion) = int(iterations)
       stats%converged_reason(motion) = int(reason)
-      if (present(kept_unknowns) .and. present(kept)) then
-        PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
-        do i = 1, n_local
-          kept(size(kept_unknowns) * (i - 1) + 1:size(kept_unknowns) * i, motion) = values(nb * (i - 1) + kept_unknowns)
-        end do
-        PetscCallA(VecRestoreArrayReadF90(solution(motion), values, ierr))
-      end if
-      if (present(bead_forces)) then
-        PetscCallA(VecGetArrayReadF90(solution(motion), values, ierr))
-        do i = 1, n_local
-          bead_forces(6 * motion - 5:6 * motion, i) = matmul(values(nb * (i - 1) + 1:nb * i), projection)
-        end do
-        PetscCallA(VecRestoreArrayReadF90(solution(motion), values, ierr))
-      end if
     end do
 
     ! zeta_mn = c_m . q_n + q_m . r_n (the force and torque of solution n projected on motion m).
@@ -316,20 +332,20 @@ contains
         PetscCallA(VecDot(solution(motion), residual(other), correction(motion, other), ierr))
       end do
     end do
+    end associate
     friction = plain + correction
     stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
     stats%variational_correction = maxval(abs(correction)) / maxval(abs(friction))
-    stats%solver_error_bound = solver_error_bound(stats, n_total * nb)
+    stats%solver_error_bound = solver_error_bound(stats, solver%n_total * nb)
 
-    PetscCallA(KSPGetType(ksp, ksp_type, ierr))
-    PetscCallA(PCGetType(pc, pc_type, ierr))
-    PetscCallA(KSPGetTolerances(ksp, rtol, abstol, dtol, max_iterations, ierr))
+    PetscCallA(KSPGetType(solver%ksp, ksp_type, ierr))
+    PetscCallA(PCGetType(solver%pc, pc_type, ierr))
+    PetscCallA(KSPGetTolerances(solver%ksp, rtol, abstol, dtol, max_iterations, ierr))
     stats%ksp_type = ksp_type
     stats%pc_type = pc_type
-    if (present(bead_blocks) .and. pc_type == PCSHELL) stats%pc_type = 'single-bead blocks (shell)'
+    if (solver%single_bead_blocks .and. pc_type == PCSHELL) stats%pc_type = 'single-bead blocks (shell)'
     stats%relative_tolerance = rtol
-    stats%resumed = merge(1, 0, loaded)
-    call release()
+    stats%resumed = merge(1, 0, solver%loaded)
 
   contains
 
@@ -337,13 +353,13 @@ contains
     !> the true residual, independent of the preconditioned norm KSP monitors.
     subroutine true_residual(m)
       integer, intent(in) :: m
-      PetscCallA(MatMult(matrix, solution(m), residual(m), ierr))
-      PetscCallA(VecAYPX(residual(m), -1.0_dp, rhs(m), ierr))
-      PetscCallA(VecNorm(residual(m), NORM_2, residual_norm, ierr))
-      PetscCallA(VecNorm(rhs(m), NORM_2, rhs_norm, ierr))
+      PetscCallA(MatMult(solver%matrix, solver%solution(m), solver%residual(m), ierr))
+      PetscCallA(VecAYPX(solver%residual(m), -1.0_dp, solver%rhs(m), ierr))
+      PetscCallA(VecNorm(solver%residual(m), NORM_2, residual_norm, ierr))
+      PetscCallA(VecNorm(solver%rhs(m), NORM_2, rhs_norm, ierr))
       stats%true_relative_residual(m) = residual_norm / rhs_norm
-      residual_square = preconditioned_square(residual(m))
-      rhs_square = preconditioned_square(rhs(m))
+      residual_square = preconditioned_square(solver%residual(m))
+      rhs_square = preconditioned_square(solver%rhs(m))
       stats%natural_relative_residual(m) = -1.0_dp   ! a preconditioner that is not SPD: none
       if (residual_square >= 0.0_dp .and. rhs_square > 0.0_dp) &
         stats%natural_relative_residual(m) = sqrt(residual_square / rhs_square)
@@ -352,104 +368,165 @@ contains
     !> v^T M v, M the preconditioner (positive for CG's SPD preconditioners).
     real(dp) function preconditioned_square(v)
       Vec, intent(in) :: v
-      PetscCallA(PCApply(pc, v, preconditioned, ierr))
-      PetscCallA(VecDot(v, preconditioned, preconditioned_square, ierr))
+      PetscCallA(PCApply(solver%pc, v, solver%preconditioned, ierr))
+      PetscCallA(VecDot(v, solver%preconditioned, preconditioned_square, ierr))
     end function preconditioned_square
-
-    !> The motions of a checkpoint with this run's key into `solution` (loaded). Another key or
-    !> an unreadable file: one warning line, nothing loaded, and the file is overwritten by the
-    !> first save.
-    subroutine load_checkpoint()
-      type(error_t) :: problem
-      integer(hid_t) :: file_id
-      integer :: outcome, m
-      logical :: found
-      real(dp), pointer :: block(:, :)
-      call open_checkpoint(ctx, checkpoint_file, key, file_id, outcome, problem)
-      if (outcome == checkpoint_matches) then
-        do m = 1, 6
-          if (stats%source(m) /= 0) cycle   ! derived motions are recomputed from their sources
-          PetscCallA(VecGetArrayF90(solution(m), values, ierr))
-          block => columns(values)
-          call read_checkpoint_motion(file_id, motion_names(m), block, first_bead, n_total, found, saved(m), problem)
-          PetscCallA(VecRestoreArrayF90(solution(m), values, ierr))
-          loaded(m) = found
-          ! The next read is collective: every rank must know that this one failed somewhere.
-          call agree_on_error(ctx, problem)
-          if (problem%failed) exit
-        end do
-        call close_checkpoint(file_id, problem)
-        call agree_on_error(ctx, problem)
-        if (problem%failed) loaded = .false.
-      end if
-      if (ctx%rank == 0) then
-        if (problem%failed) then
-          write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // "': " // problem%message // &
-            '; ignored, this run overwrites it'
-        else if (outcome == checkpoint_other_key) then
-          write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // "' is of another job " // &
-            '(its key differs: other input, beads or solver settings); ignored, this run overwrites it'
-        end if
-      end if
-      if (count(loaded) > 0) call progress_line(report, 'checkpoint: ' // str(count(loaded)) // ' motions to resume')
-    end subroutine load_checkpoint
-
-    !> Collective. Save every motion solved or resumed so far (with `m`, just solved) to a new
-    !> checkpoint. A checkpoint that cannot be written gives one warning; the run goes on
-    !> without saving (its result does not depend on it).
-    subroutine save_checkpoint(m)
-      integer, intent(in) :: m
-      type(error_t) :: problem
-      type(checkpoint_writer_t) :: writer
-      integer :: k
-      real(dp), pointer :: block(:, :)
-      call begin_checkpoint(ctx, checkpoint_file, key, n_total, nb, writer, problem)
-      if (.not. problem%failed) then
-        do k = 1, 6
-          if (.not. (k == m .or. loaded(k) .or. (stats%source(k) == 0 .and. k < m))) cycle
-          PetscCallA(VecGetArrayReadF90(solution(k), values, ierr))
-          block => columns(values)
-          call write_checkpoint_motion(writer, motion_names(k), block, first_bead, n_total, saved(k), problem)
-          PetscCallA(VecRestoreArrayReadF90(solution(k), values, ierr))
-        end do
-        call commit_checkpoint(ctx, writer, problem)
-      end if
-      if (problem%failed) then
-        saving = .false.
-        if (ctx%rank == 0) write (error_unit, '(a)') "beadmob: warning: checkpoint '" // checkpoint_file // &
-          "' not written: " // problem%message // '; the run goes on without saving its solves'
-      end if
-    end subroutine save_checkpoint
-
-    !> This rank's part of a solution vector as (nb, n_local) columns of global beads.
-    function columns(flat) result(block)
-      PetscScalar, pointer, intent(in) :: flat(:)
-      real(dp), pointer :: block(:, :)
-      if (n_local > 0) then
-        block(1:nb, 1:n_local) => flat
-      else   ! a rank without beads: a zero-size array, whatever PETSc returns for none
-        block => no_columns
-      end if
-    end function columns
 
     function saved_where() result(text)
       character(len=:), allocatable :: text
       text = ''
-      if (saving) text = ", saved in '" // checkpoint_file // "'"
+      if (solver%saving) text = ", saved in '" // solver%checkpoint_file // "'"
     end function saved_where
+  end subroutine solve_motions
 
-    subroutine release()
-      integer :: m
+  !> The motions of a checkpoint with the solver's key into its solutions (solver%loaded).
+  !> Another key or an unreadable file: one warning line, nothing loaded, and the file is
+  !> overwritten by the first save. Derived motions (source /= 0) are recomputed from their sources.
+  subroutine load_checkpoint(solver, source)
+    type(motion_solver_t), intent(inout) :: solver
+    integer, intent(in) :: source(6)
+    type(error_t) :: problem
+    integer(hid_t) :: file_id
+    integer :: outcome, m
+    logical :: found
+    real(dp), pointer :: block(:, :)
+    real(dp), target :: no_columns(solver%nb, 0)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    call open_checkpoint(solver%ctx, solver%checkpoint_file, solver%key, file_id, outcome, problem)
+    if (outcome == checkpoint_matches) then
       do m = 1, 6
-        PetscCallA(VecDestroy(rhs(m), ierr))
-        PetscCallA(VecDestroy(solution(m), ierr))
-        PetscCallA(VecDestroy(residual(m), ierr))
+        if (source(m) /= 0) cycle
+        PetscCallA(VecGetArrayF90(solver%solution(m), values, ierr))
+        block => columns(solver, values, no_columns)
+        call read_checkpoint_motion(file_id, motion_names(m), block, solver%first_bead, solver%n_total, found, &
+                                    solver%saved(m), problem)
+        PetscCallA(VecRestoreArrayF90(solver%solution(m), values, ierr))
+        solver%loaded(m) = found
+        ! The next read is collective: every rank must know that this one failed somewhere.
+        call agree_on_error(solver%ctx, problem)
+        if (problem%failed) exit
       end do
-      PetscCallA(VecDestroy(template, ierr))
-      PetscCallA(VecDestroy(preconditioned, ierr))
-      PetscCallA(KSPDestroy(ksp, ierr))
-    end subroutine release
-  end subroutine rigid_body_friction
+      call close_checkpoint(file_id, problem)
+      call agree_on_error(solver%ctx, problem)
+      if (problem%failed) solver%loaded = .false.
+    end if
+    if (solver%ctx%rank == 0) then
+      if (problem%failed) then
+        write (error_unit, '(a)') "beadmob: warning: checkpoint '" // solver%checkpoint_file // "': " // &
+          problem%message // '; ignored, this run overwrites it'
+      else if (outcome == checkpoint_other_key) then
+        write (error_unit, '(a)') "beadmob: warning: checkpoint '" // solver%checkpoint_file // "' is of another job " // &
+          '(its key differs: other input, beads or solver settings); ignored, this run overwrites it'
+      end if
+    end if
+    if (count(solver%loaded) > 0) call progress_line(solver%progress, 'checkpoint: ' // str(count(solver%loaded)) // &
+                                                     ' motions to resume')
+  end subroutine load_checkpoint
+
+  !> Collective. Save every motion solved or resumed so far (with `m`, just solved) to a new
+  !> checkpoint. A checkpoint that cannot be written gives one warning; the run goes on
+  !> without saving (its result does not depend on it).
+  subroutine save_checkpoint(solver, m, source)
+    type(motion_solver_t), intent(inout) :: solver
+    integer, intent(in) :: m, source(6)
+    type(error_t) :: problem
+    type(checkpoint_writer_t) :: writer
+    integer :: k
+    real(dp), pointer :: block(:, :)
+    real(dp), target :: no_columns(solver%nb, 0)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    call begin_checkpoint(solver%ctx, solver%checkpoint_file, solver%key, solver%n_total, solver%nb, writer, problem)
+    if (.not. problem%failed) then
+      do k = 1, 6
+        if (.not. (k == m .or. solver%loaded(k) .or. (source(k) == 0 .and. k < m))) cycle
+        PetscCallA(VecGetArrayReadF90(solver%solution(k), values, ierr))
+        block => columns(solver, values, no_columns)
+        call write_checkpoint_motion(writer, motion_names(k), block, solver%first_bead, solver%n_total, solver%saved(k), &
+                                     problem)
+        PetscCallA(VecRestoreArrayReadF90(solver%solution(k), values, ierr))
+      end do
+      call commit_checkpoint(solver%ctx, writer, problem)
+    end if
+    if (problem%failed) then
+      solver%saving = .false.
+      if (solver%ctx%rank == 0) write (error_unit, '(a)') "beadmob: warning: checkpoint '" // solver%checkpoint_file // &
+        "' not written: " // problem%message // '; the run goes on without saving its solves'
+    end if
+  end subroutine save_checkpoint
+
+  !> This rank's part of a solution vector as (nb, n_local) columns of global beads; on a rank
+  !> without beads the caller's zero-size `none`, whatever PETSc returns for no entries.
+  function columns(solver, flat, none) result(block)
+    type(motion_solver_t), intent(in) :: solver
+    PetscScalar, pointer, intent(in) :: flat(:)
+    real(dp), target, intent(in) :: none(:, :)
+    real(dp), pointer :: block(:, :)
+    if (solver%n_local > 0) then
+      block(1:solver%nb, 1:solver%n_local) => flat
+    else
+      block => none
+    end if
+  end function columns
+
+  !> kept (size(unknowns) n_local x 6): the entries `unknowns` (indices into the unknowns per
+  !> bead) of each solution, e.g. the order L - 1 part of an order-L one; 0 for motions not computed.
+  subroutine keep_solution_part(solver, unknowns, kept)
+    type(motion_solver_t), intent(in) :: solver
+    integer, intent(in) :: unknowns(:)
+    real(dp), intent(out) :: kept(:, :)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    integer(i8) :: i
+    integer :: motion
+    do motion = 1, 6
+      PetscCallA(VecGetArrayReadF90(solver%solution(motion), values, ierr))
+      do i = 1, solver%n_local
+        kept(size(unknowns) * (i - 1) + 1:size(unknowns) * i, motion) = values(solver%nb * (i - 1) + unknowns)
+      end do
+      PetscCallA(VecRestoreArrayReadF90(solver%solution(motion), values, ierr))
+    end do
+  end subroutine keep_solution_part
+
+  !> forces (36 x n_local): column i holds, for motion m = 1..6, the force and torque (about its
+  !> centre) that bead first_bead+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
+  subroutine bead_forces_of_solutions(solver, projection, forces)
+    type(motion_solver_t), intent(in) :: solver
+    real(dp), intent(in) :: projection(:, :)
+    real(dp), intent(out) :: forces(:, :)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    integer(i8) :: i
+    integer :: motion, nb
+    nb = solver%nb
+    do motion = 1, 6
+      PetscCallA(VecGetArrayReadF90(solver%solution(motion), values, ierr))
+      do i = 1, solver%n_local
+        forces(6 * motion - 5:6 * motion, i) = matmul(values(nb * (i - 1) + 1:nb * i), projection)
+      end do
+      PetscCallA(VecRestoreArrayReadF90(solver%solution(motion), values, ierr))
+    end do
+  end subroutine bead_forces_of_solutions
+
+  !> Collective. Everything the solver holds (not the matrices or the bead blocks: the caller's).
+  subroutine destroy_motion_solver(solver)
+    type(motion_solver_t), intent(inout) :: solver
+    PetscErrorCode :: ierr
+    integer :: m
+    do m = 1, 6
+      PetscCallA(VecDestroy(solver%rhs(m), ierr))
+      PetscCallA(VecDestroy(solver%solution(m), ierr))
+      PetscCallA(VecDestroy(solver%residual(m), ierr))
+    end do
+    PetscCallA(VecDestroy(solver%template, ierr))
+    PetscCallA(VecDestroy(solver%preconditioned, ierr))
+    PetscCallA(KSPDestroy(solver%ksp, ierr))
+    if (allocated(solver%symmetry)) then
+      call destroy_motion_symmetry(solver%symmetry)
+      deallocate (solver%symmetry)
+    end if
+  end subroutine destroy_motion_solver
 
   !> The solver error bound of the variational friction (theory.md T5): with e_m the error of
   !> solution m and r_m its residual, zeta_mn - zeta_mn(exact) = -e_m^T A e_n = -r_m^T A^-1 r_n, so

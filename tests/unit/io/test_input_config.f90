@@ -5,6 +5,7 @@ program test_input_config
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t
   use beadmob_input_config, only: run_config_t, parse_input_text, effective_input_text, is_set
+  use beadmob_friction_settings, only: friction_settings_t
   use beadmob_testing
   implicit none
   type(test_suite_t) :: suite
@@ -16,6 +17,7 @@ program test_input_config
   call test_errors()
   call test_run_switches()
   call test_error_estimate_switch()
+  call test_one_set_of_defaults()
   call finish_tests(suite)
 
 contains
@@ -123,4 +125,34 @@ contains
     call check(suite, config%hydrodynamics%error_estimate_given .and. .not. config%hydrodynamics%error_estimate, &
                'error_estimate = .false.: given, off')
   end subroutine test_error_estimate_switch
+  !> Issue 23, item 3: the input's &hydrodynamics group fills the job's settings type itself, so
+  !> an empty group must leave every setting at the type's own default (the library's), apart
+  !> from what the group's presence means (enabled) and what the reader resolves by a stated rule
+  !> (potential_order = max(L - 2, 0), theory.md T3). A default declared a second time in the
+  !> reader, as the lubrication default once was, fails here.
+  subroutine test_one_set_of_defaults()
+    type(run_config_t) :: config
+    type(friction_settings_t) :: library
+    type(error_t) :: err
+    call parse_input_text("&shape name = 'sphere', radius = 2 /" // nl // "&hydrodynamics /" // nl, 'd.nml', config, err)
+    call check(suite, .not. err%failed .and. config%hydrodynamics%enabled, 'an empty &hydrodynamics group enables the job')
+    associate (input => config%hydrodynamics)
+      call check(suite, input%multipole_order == library%multipole_order, 'same default: multipole_order')
+      call check(suite, input%potential_order == max(library%multipole_order - 2, 0), 'potential_order by its rule')
+      call check(suite, input%lubrication .eqv. library%lubrication, 'same default: lubrication')
+      call check(suite, input%lubrication_cutoff == library%lubrication_cutoff, 'same default: lubrication_cutoff')
+      call check(suite, input%bead_forces .eqv. library%bead_forces, 'same default: bead_forces')
+      call check(suite, input%cache_file == library%cache_file, 'same default: cache_file')
+      call check(suite, input%shell_layers == library%shell_layers, 'same default: shell_layers (left to the plan)')
+      call check(suite, input%krylov_rtol == library%krylov_rtol, 'same default: krylov_rtol')
+      call check(suite, input%motions_text == library%motions_text .and. all(input%motions .eqv. library%motions), &
+                 'same default: motions')
+      call check(suite, input%use_symmetry .eqv. library%use_symmetry, 'same default: use_symmetry')
+      call check(suite, input%accuracy == library%accuracy, 'same default: accuracy')
+      call check(suite, .not. input%error_estimate_given .and. .not. input%choices_given, 'nothing marked as given')
+      call check(suite, input%operator_name == library%operator_name .and. input%fft_planner == library%fft_planner &
+                 .and. input%pfft_stencil == library%pfft_stencil .and. input%pfft_near_radius == library%pfft_near_radius, &
+                 'command-line settings untouched by the input')
+    end associate
+  end subroutine test_one_set_of_defaults
 end program test_input_config

@@ -19,7 +19,7 @@
 program test_multipole_friction
 #include "petsc/finclude/petscksp.h"
   use petscksp
-  use beadmob_kinds, only: dp, i8
+  use beadmob_kinds, only: dp
   use beadmob_testing
   use beadmob_errors, only: error_t
   use beadmob_strings, only: str
