@@ -120,7 +120,8 @@ contains
 
     if (plan%body_frame) call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // &
       str(plan%n_solves) // ' solves for the six motions (' // str(plan%lab_solves) // ' in the model''s coordinates)')
-    call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, result, err)
+    call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, &
+                           plan%symmetry_group, result, err)
     result%planned_solves = plan%n_solves
     result%estimated_peak_memory_bytes = plan%estimate%peak
     result%estimated_seconds = plan%estimate%seconds_total
@@ -146,12 +147,13 @@ contains
 
 
   !> Collective. The friction job on the bead set `centres` (all beads in the solve) with the
-  !> operator the plan chose.
-  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, result, err)
+  !> operator and the symmetry group (about reference_point) the plan found.
+  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, symmetry_group, result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
     character(len=*), intent(in) :: operator_name
+    logical, intent(in) :: symmetry_group(:)
     type(friction_result_t), intent(out) :: result
     type(error_t), intent(inout) :: err
     type(multipole_basis_t) :: basis
@@ -338,7 +340,7 @@ contains
       type(solve_statistics_t), intent(out) :: stats
       type(error_t), intent(inout) :: err
       if (settings%use_symmetry .and. .not. level_op%assembled) then
-        call find_symmetry(level_solver, level_basis, centres, reference_point, err)
+        call find_symmetry(level_solver, level_basis, centres, reference_point, symmetry_group, err)
         if (err%failed) return
       end if
       call solve_motions(level_solver, level_projection, centres, reference_point, settings%motions, friction, stats, err)

@@ -14,7 +14,7 @@ module beadmob_job_plan
   use beadmob_multipole_basis, only: basis_size
   use beadmob_fft_operator, only: fft_size
   use beadmob_dense_operator, only: dense_max_unknowns
-  use beadmob_motion_symmetry, only: solves_needed
+  use beadmob_motion_symmetry, only: find_symmetry_group, solves_needed, n_symmetries
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
   use beadmob_friction_settings, only: friction_settings_t, automatic_shell_layers
   use beadmob_job_defaults, only: is_set
@@ -48,6 +48,9 @@ module beadmob_job_plan
     !> looked for with use_symmetry off or the dense operator, whose solve is exact); and the
     !> count in the model's own coordinates (equal unless body_frame)
     integer :: n_solves = 6, lab_solves = 6
+    !> The lattice symmetries of the solve beads in the solve frame about the reference point
+    !> (motion_symmetry.F90; found once, here, with use_symmetry; the job derives motions by them)
+    logical :: symmetry_group(n_symmetries) = .false.
     !> The ranks the job is planned for
     integer :: n_ranks = 1
     type(job_estimate_t) :: estimate
@@ -151,12 +154,14 @@ contains
     type(body_frame_t) :: frame
     real(dp), allocatable :: candidate(:, :)
     integer :: body_solves
+    logical :: body_group(n_symmetries)
     plan%lab_solves = count(settings%motions)
     plan%n_solves = plan%lab_solves
     if (.not. settings%use_symmetry) return
-    plan%lab_solves = solves_needed(ctx%comm, plan%solve_centres, plan%reference_point, settings%motions, err)
+    call find_symmetry_group(ctx%comm, plan%solve_centres, plan%reference_point, plan%symmetry_group, err)
     call agree_on_error(ctx, err)   ! the same replicated centres everywhere: only a resource failure differs
     if (err%failed) return
+    plan%lab_solves = solves_needed(plan%symmetry_group, settings%motions)
     plan%n_solves = plan%lab_solves
     ! (A test stop, -stop_after_solves, fails the job before anything is turned back; it keeps the
     ! frame, so the checkpoint it leaves belongs to the resumed job's solves.)
@@ -167,10 +172,13 @@ contains
     candidate = matmul(transpose(frame%axes), plan%solve_centres - spread(plan%reference_point, 2, &
                                                                           size(plan%solve_centres, 2))) + &
                 spread(plan%reference_point, 2, size(plan%solve_centres, 2))
-    body_solves = solves_needed(ctx%comm, candidate, plan%reference_point, settings%motions, err)
+    call find_symmetry_group(ctx%comm, candidate, plan%reference_point, body_group, err)
     call agree_on_error(ctx, err)
-    if (err%failed .or. body_solves >= plan%lab_solves) return
+    if (err%failed) return
+    body_solves = solves_needed(body_group, settings%motions)
+    if (body_solves >= plan%lab_solves) return
     plan%body_frame = .true.
+    plan%symmetry_group = body_group
     plan%solve_axes = frame%axes
     plan%n_solves = body_solves
     call move_alloc(candidate, plan%solve_centres)

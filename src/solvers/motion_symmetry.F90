@@ -6,20 +6,21 @@
 !> pseudo-vector). So only one motion per orbit of the six unit motions under the symmetry group
 !> is solved: 2 of 6 for a sphere or cube, 4 for a body with a four-fold axis, 6 for a body with
 !> mirror planes only (a mirror maps each motion to +-itself).
-!> The group is found from the bead set, never assumed: every symmetry is checked bead by bead,
-!> and every derived solution gets the same true-residual check as a solved one.
+!> The group is found from the bead set, never assumed: every symmetry is checked bead by bead
+!> (once, by the job's plan), and every derived solution gets the same true-residual check as a
+!> solved one.
 module beadmob_motion_symmetry
 #include "petsc/finclude/petscvec.h"
   use petscvec
   use beadmob_kinds, only: dp, i8
-  use beadmob_errors, only: error_t
+  use beadmob_errors, only: error_t, raise
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
   use beadmob_lattice_symmetry, only: n_symmetries, symmetry_matrix, basis_transforms
   use beadmob_multipole_basis, only: multipole_basis_t
   implicit none
   private
-  public :: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry, symmetry_tolerance, &
-            solves_needed
+  public :: motion_symmetry_t, find_symmetry_group, find_motion_symmetry, derive_solution, destroy_motion_symmetry, &
+            symmetry_tolerance, solves_needed, n_symmetries
 
   !> Bead images must land on a bead within this distance (d).
   real(dp), parameter :: symmetry_tolerance = 1.0e-6_dp
@@ -37,44 +38,83 @@ module beadmob_motion_symmetry
 
 contains
 
-  !> Collective. The symmetries of `centres` (all beads) about reference_point and the motions
-  !> they give for free. `template` is a vector of the operator's layout (nb rows per bead, this
-  !> rank's beads first..first+n_local-1). A bead set off any symmetry gives group_order 1.
-  subroutine find_motion_symmetry(comm, basis, centres, reference_point, first, n_local, template, symmetry, err)
+  !> Collective. The lattice symmetries (of the n_symmetries signed axis permutations) that map
+  !> the bead set `centres` onto itself about reference_point: in_group(s). Each rank checks its
+  !> share of the beads; a symmetry is in the group when it holds on every rank.
+  subroutine find_symmetry_group(comm, centres, reference_point, in_group, err)
+    MPI_Comm, intent(in) :: comm
+    real(dp), intent(in) :: centres(:, :), reference_point(3)
+    logical, intent(out) :: in_group(n_symmetries)
+    type(error_t), intent(inout) :: err
+    type(spatial_index_t) :: index
+    integer :: s, rank, n_ranks
+    integer(i8) :: b, n, first, last, n_found
+    integer(i8), allocatable :: found(:)
+    PetscErrorCode :: ierr
+    in_group = .false.
+    call build_spatial_index(centres, index, err)
+    if (err%failed) return
+    call MPI_Comm_rank(comm, rank, ierr)
+    call MPI_Comm_size(comm, n_ranks, ierr)
+    n = size(centres, 2, kind=i8)
+    first = 1 + (n * rank) / n_ranks
+    last = (n * (rank + 1)) / n_ranks
+    in_group = .true.
+    do s = 1, n_symmetries
+      do b = first, last
+        call beads_within(index, centres, reference_point + matmul(real(symmetry_matrix(s), dp), &
+                                                                   centres(:, b) - reference_point), &
+                          symmetry_tolerance, found, n_found)
+        if (n_found /= 1) then
+          in_group(s) = .false.
+          exit
+        end if
+      end do
+    end do
+    call MPI_Allreduce(MPI_IN_PLACE, in_group, n_symmetries, MPI_LOGICAL, MPI_LAND, comm, ierr)
+  end subroutine find_symmetry_group
+
+  !> Collective. The motions that the symmetry group `in_group` of `centres` (find_symmetry_group,
+  !> about reference_point) gives for free, and how: the operator's basis transforms and the bead
+  !> permutations of the symmetries used. `template` is a vector of the operator's layout (nb rows
+  !> per bead, this rank's beads first..first+n_local-1).
+  subroutine find_motion_symmetry(comm, basis, centres, reference_point, in_group, first, n_local, template, symmetry, err)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :), reference_point(3)
+    logical, intent(in) :: in_group(n_symmetries)
     integer(i8), intent(in) :: first, n_local
     Vec, intent(in) :: template
     type(motion_symmetry_t), intent(out) :: symmetry
     type(error_t), intent(inout) :: err
     type(spatial_index_t) :: index
-    integer(i8), allocatable :: image(:, :)
-    logical :: in_group(n_symmetries)
+    integer(i8), allocatable :: image(:)
     real(dp), allocatable :: all_transforms(:, :, :)
-    integer :: s, motion
+    integer :: motion
+    logical :: mapped
     PetscErrorCode :: ierr
 
-    call build_spatial_index(centres, index, err)
-    if (err%failed) return
-    ! Each rank checks and keeps the images of its own beads only (O(N/P) memory per rank); a
-    ! symmetry is in the group when it holds on every rank.
-    allocate (image(first:first + n_local - 1, n_symmetries))
-    do s = 1, n_symmetries
-      in_group(s) = maps_onto_itself(symmetry_matrix(s), image(:, s))
-    end do
-    call MPI_Allreduce(MPI_IN_PLACE, in_group, n_symmetries, MPI_LOGICAL, MPI_LAND, comm, ierr)
     symmetry%group_order = count(in_group)
-
     call orbit_sources(in_group, symmetry%source, symmetry%sign, symmetry%symmetry)
     if (all(symmetry%source == 0)) return
 
+    call build_spatial_index(centres, index, err)
+    if (err%failed) return
+    ! Each rank keeps the images of its own beads only (O(N/P) memory per rank).
+    allocate (image(first:first + n_local - 1))
     allocate (all_transforms(basis%size, basis%size, n_symmetries), symmetry%transform(basis%size, basis%size, 6))
     call basis_transforms(basis, all_transforms)
     do motion = 1, 6
       if (symmetry%source(motion) == 0) cycle
       symmetry%transform(:, :, motion) = all_transforms(:, :, symmetry%symmetry(motion))
-      call make_permutation(image(:, symmetry%symmetry(motion)), symmetry%permute(motion))
+      mapped = maps_onto_itself(symmetry_matrix(symmetry%symmetry(motion)), image)
+      call MPI_Allreduce(MPI_IN_PLACE, mapped, 1, MPI_LOGICAL, MPI_LAND, comm, ierr)
+      if (.not. mapped) then   ! not these beads' group: a caller's error, the same on every rank
+        call raise(err, 'internal: a symmetry of the plan does not map the beads of the solve onto themselves')
+        symmetry%source(motion:) = 0
+        return
+      end if
+      call make_permutation(image, symmetry%permute(motion))
     end do
 
   contains
@@ -137,42 +177,13 @@ contains
     end do
   end subroutine orbit_sources
 
-  !> Collective. The Krylov solves the `requested` motions need when the motions that symmetries
-  !> of the bead set give are derived (as rigid_body_friction does: a requested derived motion
-  !> needs its source; a source left out makes its derived motions solved). Each rank checks its
-  !> share of the beads, nothing is stored: the dry run's count (job_planning.F90).
-  integer function solves_needed(comm, centres, reference_point, requested, err)
-    MPI_Comm, intent(in) :: comm
-    real(dp), intent(in) :: centres(:, :), reference_point(3)
-    logical, intent(in) :: requested(6)
-    type(error_t), intent(inout) :: err
-    type(spatial_index_t) :: index
-    logical :: in_group(n_symmetries), computed(6)
-    integer :: source(6), sign(6), symmetry(6), s, rank, n_ranks, motion
-    integer(i8) :: b, n, first, last, n_found
-    integer(i8), allocatable :: found(:)
-    PetscErrorCode :: ierr
-    solves_needed = count(requested)
-    call build_spatial_index(centres, index, err)
-    if (err%failed) return
-    call MPI_Comm_rank(comm, rank, ierr)
-    call MPI_Comm_size(comm, n_ranks, ierr)
-    n = size(centres, 2, kind=i8)
-    first = 1 + (n * rank) / n_ranks
-    last = (n * (rank + 1)) / n_ranks
-    in_group = .true.
-    do s = 1, n_symmetries
-      do b = first, last
-        call beads_within(index, centres, reference_point + matmul(real(symmetry_matrix(s), dp), &
-                                                                   centres(:, b) - reference_point), &
-                          symmetry_tolerance, found, n_found)
-        if (n_found /= 1) then
-          in_group(s) = .false.
-          exit
-        end if
-      end do
-    end do
-    call MPI_Allreduce(MPI_IN_PLACE, in_group, n_symmetries, MPI_LOGICAL, MPI_LAND, comm, ierr)
+  !> The Krylov solves the `requested` motions need when the motions that the symmetry group
+  !> in_group gives are derived (as solve_motions does: a requested derived motion needs its
+  !> source; a source left out makes its derived motions solved): the plan's count.
+  pure integer function solves_needed(in_group, requested)
+    logical, intent(in) :: in_group(n_symmetries), requested(6)
+    logical :: computed(6)
+    integer :: source(6), sign(6), symmetry(6), motion
     call orbit_sources(in_group, source, sign, symmetry)
     computed = requested
     do motion = 1, 6

@@ -185,16 +185,18 @@ contains
                  ', max_it ' // str(int(max_iterations)) // new_line('a')
   end subroutine use_checkpoint
 
-  !> Collective. The symmetries of the bead set `centres` about reference_point in `basis`
-  !> (motion_symmetry.F90): the motions they give are derived from others by solve_motions.
-  subroutine find_symmetry(solver, basis, centres, reference_point, err)
+  !> Collective. The symmetry group in_group of the bead set `centres` about reference_point (the
+  !> plan's, find_symmetry_group) in `basis` (motion_symmetry.F90): the motions it gives are
+  !> derived from others by solve_motions.
+  subroutine find_symmetry(solver, basis, centres, reference_point, in_group, err)
     type(motion_solver_t), intent(inout) :: solver
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :), reference_point(3)
+    logical, intent(in) :: in_group(:)
     type(error_t), intent(inout) :: err
     allocate (solver%symmetry)
-    call find_motion_symmetry(solver%ctx%comm, basis, centres, reference_point, solver%first_bead, solver%n_local, &
-                              solver%template, solver%symmetry, err)
+    call find_motion_symmetry(solver%ctx%comm, basis, centres, reference_point, in_group, solver%first_bead, &
+                              solver%n_local, solver%template, solver%symmetry, err)
     ! The same replicated centres everywhere: only a resource failure differs.
     call agree_on_error(solver%ctx, err)
   end subroutine find_symmetry
