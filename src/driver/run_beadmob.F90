@@ -44,7 +44,7 @@ contains
     type(body_frame_t) :: frame
     type(mobility_result_t) :: mobility
     real(dp) :: companion_mobility(6, 6)
-    type(friction_result_t) :: hydro
+    type(friction_result_t) :: job_result
     type(job_plan_t) :: plan
     type(accuracy_choice_t) :: choice
     character(len=:), allocatable :: text, source
@@ -115,9 +115,9 @@ contains
       if (err%failed) return
       if (choice%target > 0.0_dp) call meet_accuracy_target()
       if (err%failed) return
-      hydro%accuracy = choice
+      job_result%accuracy = choice
       call progress_line(config%hydrodynamics%progress .and. ctx%rank == 0, 'phase output')
-      call write_result_file(ctx, config, model, frame, err, mobility, hydro)
+      call write_result_file(ctx, config, model, frame, err, mobility, job_result)
       ! The result is safe: the saved solves are no longer needed (a failed write keeps them).
       if (.not. err%failed .and. config%checkpoint .and. ctx%rank == 0) call remove_checkpoint(trim(config%hydrodynamics%checkpoint_file))
     else
@@ -125,47 +125,47 @@ contains
     end if
     if (err%failed) return
     if (ctx%rank == 0) call print_summary(config, model, frame)
-    if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(config, mobility, hydro)
+    if (ctx%rank == 0 .and. config%hydrodynamics%enabled) call print_mobility(config, mobility, job_result)
     if (ctx%rank == 0) call warn_unused_options()
 
   contains
 
     !> The friction job with the settings as they stand, its diagnostics, mobility and error bar.
     subroutine solve_and_estimate()
-        call friction_of_plan(ctx, config%hydrodynamics, plan, hydro, err)
+        call friction_of_plan(ctx, config%hydrodynamics, plan, job_result, err)
         if (err%failed) return   ! agreed on inside
         ! Flagged in the file and on stderr, never hidden (docs/stress_tests.md); a non-finite
         ! friction has no mobility: NaN there, the file still written with friction_finite = 0.
-        hydro%diagnostics = diagnose_friction(hydro%friction)
-        hydro%multipole_diagnostics = diagnose_friction(hydro%multipole_friction)
+        job_result%diagnostics = diagnose_friction(job_result%friction)
+        job_result%multipole_diagnostics = diagnose_friction(job_result%multipole_friction)
         if (ctx%rank == 0 .and. .not. all(config%hydrodynamics%motions)) then
           write (*, '(a)') "  motions '" // trim(config%hydrodynamics%motions_text) // "' only: the friction " // &
             'entries between motions left out and the mobility are not computed (NaN)'
         else if (ctx%rank == 0) then
-          if (config%hydrodynamics%lubrication) call warn(friction_warning(hydro%multipole_diagnostics, &
+          if (config%hydrodynamics%lubrication) call warn(friction_warning(job_result%multipole_diagnostics, &
                                                                            'the order-L friction matrix'))
-          call warn(friction_warning(hydro%diagnostics, 'the friction matrix'))
+          call warn(friction_warning(job_result%diagnostics, 'the friction matrix'))
         end if
-        if (hydro%multipole_diagnostics%finite) then
-          call compute_mobility(hydro%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, &
+        if (job_result%multipole_diagnostics%finite) then
+          call compute_mobility(job_result%multipole_friction, frame%centre_of_mass, frame%axes, model%reference_length, &
                                 mobility, err)
           if (err%failed) return   ! same replicated friction on every rank: same outcome
-          hydro%multipole_coefficients = mobility%coefficients
+          job_result%multipole_coefficients = mobility%coefficients
         else
-          hydro%multipole_coefficients = ieee_value(1.0_dp, ieee_quiet_nan)
+          job_result%multipole_coefficients = ieee_value(1.0_dp, ieee_quiet_nan)
         end if
-        if (hydro%diagnostics%finite) then
-          call compute_mobility(hydro%friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, err)
+        if (job_result%diagnostics%finite) then
+          call compute_mobility(job_result%friction, frame%centre_of_mass, frame%axes, model%reference_length, mobility, err)
           if (err%failed) return
         else
-          mobility = undefined_mobility(hydro%friction)
+          mobility = undefined_mobility(job_result%friction)
         end if
         ! The error bar: the companion's mobility in this run's body frame (theory.md T14).
-        if (hydro%companion_order > 0 .and. hydro%diagnostics%finite .and. all(ieee_is_finite(hydro%companion_friction))) then
-          call mobility_in_frame(hydro%companion_friction, mobility%body_axes, companion_mobility, err)
+        if (job_result%companion_order > 0 .and. job_result%diagnostics%finite .and. all(ieee_is_finite(job_result%companion_friction))) then
+          call mobility_in_frame(job_result%companion_friction, mobility%body_axes, companion_mobility, err)
           if (err%failed) return
-          hydro%estimate = estimate_error(mobility%body_mobility, companion_mobility, model%reference_length, &
-                                          hydro%companion_order)
+          job_result%estimate = estimate_error(mobility%body_mobility, companion_mobility, model%reference_length, &
+                                          job_result%companion_order)
         end if
     end subroutine solve_and_estimate
 
@@ -178,8 +178,8 @@ contains
       type(job_plan_t) :: raised
       type(friction_settings_t) :: solved
       associate (job => config%hydrodynamics)
-      do while (hydro%estimate%available)
-        choice%estimated_error = maxval(hydro%estimate%scaled_coefficient_error)
+      do while (job_result%estimate%available)
+        choice%estimated_error = maxval(job_result%estimate%scaled_coefficient_error)
         if (choice%estimated_error <= choice%target .or. job%multipole_order >= max_accuracy_order) exit
         solved = job
         job%multipole_order = job%multipole_order + 1
@@ -207,8 +207,8 @@ contains
         if (err%failed) return
       end do
       end associate
-      if (hydro%estimate%available) then
-        choice%estimated_error = maxval(hydro%estimate%scaled_coefficient_error)
+      if (job_result%estimate%available) then
+        choice%estimated_error = maxval(job_result%estimate%scaled_coefficient_error)
         choice%target_met = choice%estimated_error <= choice%target
       end if
     end subroutine meet_accuracy_target
@@ -223,24 +223,24 @@ contains
     logical, intent(in) :: on_lattice
     type(accuracy_choice_t), intent(out) :: choice
     type(error_t), intent(inout) :: err
-    associate (hydro => config%hydrodynamics)
-      if (hydro%accuracy == 0.0_dp) return
-      if (hydro%accuracy_on_command_line .and. hydro%choices_given) then
+    associate (job => config%hydrodynamics)
+      if (job%accuracy == 0.0_dp) return
+      if (job%accuracy_on_command_line .and. job%choices_given) then
         call raise(err, '-accuracy chooses multipole_order, potential_order, shell_layers and krylov_rtol; ' // &
                    config%source // ' sets some of them: give either -accuracy or those')
         return
-      else if (hydro%krylov_rtol_on_command_line) then
+      else if (job%krylov_rtol_on_command_line) then
         call raise(err, '-ksp_rtol would override the Krylov tolerance the accuracy target chooses: ' // &
                    'give one or the other')
         return
       end if
-      call choose_for_accuracy(hydro%accuracy, hydro%lubrication, on_lattice .and. .not. hydro%bead_forces, &
+      call choose_for_accuracy(job%accuracy, job%lubrication, on_lattice .and. .not. job%bead_forces, &
                                choice, err)
       if (err%failed) return
-      hydro%multipole_order = choice%order
-      hydro%potential_order = max(choice%order - 2, 0)
-      hydro%shell_layers = choice%shell_layers
-      hydro%krylov_rtol = choice%krylov_rtol
+      job%multipole_order = choice%order
+      job%potential_order = max(choice%order - 2, 0)
+      job%shell_layers = choice%shell_layers
+      job%krylov_rtol = choice%krylov_rtol
     end associate
   end subroutine apply_accuracy_target
 
@@ -269,61 +269,61 @@ contains
                                     checkpoint_suffix // "' (&run checkpoint = .false. runs without one): " // reason)
   end subroutine check_output_locations
 
-  subroutine print_mobility(config, mobility, hydro)
+  subroutine print_mobility(config, mobility, job_result)
     type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
-    type(friction_result_t), intent(in) :: hydro
+    type(friction_result_t), intent(in) :: job_result
     integer :: phase
     write (*, '(a)') '  hydrodynamics: multipole order L = ' // str(config%hydrodynamics%multipole_order) // &
       ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
-      str(hydro%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
-      lubrication_summary(config%hydrodynamics%lubrication, hydro%lubrication_pairs)
-    if (hydro%accuracy%target > 0.0_dp) then
-      write (*, '(a, es8.1, a, es8.1, a)') '  accuracy target', hydro%accuracy%target, ': setting ' // &
-        trim(hydro%accuracy%setting) // ', expected error', hydro%accuracy%expected_error, &
-        ' (bench/accuracy/accuracy.md, against ' // trim(hydro%accuracy%reference) // ')'
-      if (hydro%accuracy%estimated_error >= 0.0_dp) write (*, '(a, es8.1, a)') '  accuracy: the run''s own ' // &
-        'estimated error', hydro%accuracy%estimated_error, merge(' meets the target      ', ' misses the target     ', &
-                                                                 hydro%accuracy%target_met)
-      if (.not. hydro%accuracy%target_met) write (error_unit, '(a)') 'beadmob: warning: the accuracy target ' // &
+      str(job_result%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
+      lubrication_summary(config%hydrodynamics%lubrication, job_result%lubrication_pairs)
+    if (job_result%accuracy%target > 0.0_dp) then
+      write (*, '(a, es8.1, a, es8.1, a)') '  accuracy target', job_result%accuracy%target, ': setting ' // &
+        trim(job_result%accuracy%setting) // ', expected error', job_result%accuracy%expected_error, &
+        ' (bench/accuracy/accuracy.md, against ' // trim(job_result%accuracy%reference) // ')'
+      if (job_result%accuracy%estimated_error >= 0.0_dp) write (*, '(a, es8.1, a)') '  accuracy: the run''s own ' // &
+        'estimated error', job_result%accuracy%estimated_error, merge(' meets the target      ', ' misses the target     ', &
+                                                                 job_result%accuracy%target_met)
+      if (.not. job_result%accuracy%target_met) write (error_unit, '(a)') 'beadmob: warning: the accuracy target ' // &
         'is not met (no measured setting promises it, or the run''s own estimate exceeds it at the highest order tried)'
     end if
-    if (config%hydrodynamics%shell_layers > 0) write (*, '(a)') '  shell model: ' // str(hydro%hydrodynamic_beads) // &
+    if (config%hydrodynamics%shell_layers > 0) write (*, '(a)') '  shell model: ' // str(job_result%hydrodynamic_beads) // &
       ' beads within ' // str(config%hydrodynamics%shell_layers) // ' layer(s) of the surface'
-    write (*, '(a)') '  operator: ' // trim(hydro%operator_name) // ', Krylov method ' // trim(hydro%solves%ksp_type) // &
-      ', preconditioner ' // trim(hydro%solves%pc_type)
-    write (*, '(a, 6i5)') '  Krylov iterations: ', hydro%solves%iterations
-    if (any(hydro%solves%resumed == 1)) write (*, '(a)') '  resumed ' // str(count(hydro%solves%resumed == 1)) // &
+    write (*, '(a)') '  operator: ' // trim(job_result%operator_name) // ', Krylov method ' // trim(job_result%solves%ksp_type) // &
+      ', preconditioner ' // trim(job_result%solves%pc_type)
+    write (*, '(a, 6i5)') '  Krylov iterations: ', job_result%solves%iterations
+    if (any(job_result%solves%resumed == 1)) write (*, '(a)') '  resumed ' // str(count(job_result%solves%resumed == 1)) // &
       ' motions from the checkpoint ' // trim(config%output) // checkpoint_suffix // ' (solved ' // &
-      str(count(hydro%solves%source == 0 .and. hydro%solves%resumed == 0)) // ')'
-    if (any(hydro%solves%source /= 0)) write (*, '(a, i0, a, 6i3, a)') '  symmetries of the bead set: ', &
-      hydro%symmetry_group_order, '; motions derived, not solved (from):', hydro%solves%source, &
+      str(count(job_result%solves%source == 0 .and. job_result%solves%resumed == 0)) // ')'
+    if (any(job_result%solves%source /= 0)) write (*, '(a, i0, a, 6i3, a)') '  symmetries of the bead set: ', &
+      job_result%symmetry_group_order, '; motions derived, not solved (from):', job_result%solves%source, &
       ' (0 = solved, -1 = not computed)'
-    write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(hydro%solves%true_relative_residual)
+    write (*, '(a, es10.2)') '  largest true relative residual: ', maxval(job_result%solves%true_relative_residual)
     write (*, '(a, es10.2)') '  friction symmetry error: ', mobility%symmetry_error
     write (*, '(a, 5f10.4)') '  mu11 mu22 mu33 mu42 mu51:', mobility%coefficients
-    if (hydro%estimate%available) then
-      write (*, '(a, 5f10.4)') '  estimated error (+-):    ', hydro%estimate%coefficient_error
-      write (*, '(a, 5f10.4)') '  extrapolated in L:       ', hydro%estimate%extrapolated_coefficients
-      write (*, '(a, 5f10.4)') '  its error (+-):          ', hydro%estimate%extrapolated_coefficient_error
-      write (*, '(a, es8.1, a, es8.1, a)') '  estimated error of the mobility:', hydro%estimate%largest, &
-        ' (extrapolated', hydro%estimate%largest_extrapolated, '), largest entry on the scale sqrt(M_ii M_jj); ' // &
-        'companion order L = ' // str(hydro%estimate%companion_order)
+    if (job_result%estimate%available) then
+      write (*, '(a, 5f10.4)') '  estimated error (+-):    ', job_result%estimate%coefficient_error
+      write (*, '(a, 5f10.4)') '  extrapolated in L:       ', job_result%estimate%extrapolated_coefficients
+      write (*, '(a, 5f10.4)') '  its error (+-):          ', job_result%estimate%extrapolated_coefficient_error
+      write (*, '(a, es8.1, a, es8.1, a)') '  estimated error of the mobility:', job_result%estimate%largest, &
+        ' (extrapolated', job_result%estimate%largest_extrapolated, '), largest entry on the scale sqrt(M_ii M_jj); ' // &
+        'companion order L = ' // str(job_result%estimate%companion_order)
     else if (config%hydrodynamics%multipole_order == 1) then
       write (*, '(a)') '  estimated error: none at L = 1 (no lower order to compare with)'
     else if (.not. config%hydrodynamics%error_estimate) then
       write (*, '(a)') '  estimated error: not computed (error_estimate = .false.; on by default up to L = ' // &
         str(default_estimate_order) // ', docs/theory.md T14)'
     end if
-    if (len_trim(hydro%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(hydro%cache_file) // ': ' // &
-      str(hydro%cached_blocks) // ' blocks read, ' // str(hydro%computed_blocks) // ' computed; lubrication ' // &
-      str(hydro%lubrication_table%cached_distances) // ' distances read, ' // &
-      str(hydro%lubrication_table%computed_distances) // ' computed'
-    write (*, '(a, f0.1, a)') '  peak memory (largest rank): ', hydro%peak_memory_bytes / 2.0_dp**20, ' MiB'
+    if (len_trim(job_result%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(job_result%cache_file) // ': ' // &
+      str(job_result%cached_blocks) // ' blocks read, ' // str(job_result%computed_blocks) // ' computed; lubrication ' // &
+      str(job_result%lubrication_table%cached_distances) // ' distances read, ' // &
+      str(job_result%lubrication_table%computed_distances) // ' computed'
+    write (*, '(a, f0.1, a)') '  peak memory (largest rank): ', job_result%peak_memory_bytes / 2.0_dp**20, ' MiB'
     write (*, '(a, *(a, f0.2, :, ","))') '  wall time (s):', (' ' // trim(phase_names(phase)) // ' ', &
-      hydro%seconds(phase), phase = 1, size(phase_names))
-    if (any(hydro%solves%converged_reason <= 0 .and. hydro%solves%source >= 0)) write (error_unit, '(a, 6i4, a)') &
-      'beadmob: warning: not every Krylov solve converged (reasons ', hydro%solves%converged_reason, &
+      job_result%seconds(phase), phase = 1, size(phase_names))
+    if (any(job_result%solves%converged_reason <= 0 .and. job_result%solves%source >= 0)) write (error_unit, '(a, 6i4, a)') &
+      'beadmob: warning: not every Krylov solve converged (reasons ', job_result%solves%converged_reason, &
       '); the result file flags it: /hydrodynamics all_converged = 0'
   end subroutine print_mobility
 

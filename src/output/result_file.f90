@@ -33,14 +33,14 @@ module beadmob_result_file
 contains
 
   !> Collective. On failure the partial file is removed and `err` holds the same message on all ranks.
-  subroutine write_result_file(ctx, config, model, frame, err, mobility, solves)
+  subroutine write_result_file(ctx, config, model, frame, err, mobility, job_result)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(bead_model_t), intent(in) :: model
     type(body_frame_t), intent(in) :: frame
     type(error_t), intent(inout) :: err
     type(mobility_result_t), intent(in), optional :: mobility
-    type(friction_result_t), intent(in), optional :: solves
+    type(friction_result_t), intent(in), optional :: job_result
     character(len=:), allocatable :: final_path, partial_path
     integer(hid_t) :: file_id
     integer :: ierr
@@ -53,8 +53,8 @@ contains
     call write_metadata(ctx, file_id, config, err)
     call write_shape(file_id, model, err)
     call write_geometry(ctx, file_id, model, frame, err)
-    if (present(mobility) .and. present(solves)) &
-      call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, solves, err)
+    if (present(mobility) .and. present(job_result)) &
+      call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, job_result, err)
     call h5_close_file(file_id, err)
     call agree_on_error(ctx, err)
     call MPI_Barrier(ctx%comm, ierr)
@@ -131,13 +131,13 @@ contains
     call h5_close_group(group, err)
   end subroutine write_geometry
 
-  subroutine write_hydrodynamics(ctx, file_id, config, n_beads, mobility, hydro, err)
+  subroutine write_hydrodynamics(ctx, file_id, config, n_beads, mobility, job_result, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: file_id
     integer(i8), intent(in) :: n_beads
     type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
-    type(friction_result_t), intent(in) :: hydro
+    type(friction_result_t), intent(in) :: job_result
     type(error_t), intent(inout) :: err
     integer(hid_t) :: group
     integer :: k
@@ -146,7 +146,7 @@ contains
     call h5_create_group(file_id, 'hydrodynamics', group, err)
     call write_attribute(group, 'multipole_order', config%hydrodynamics%multipole_order, err)
     call write_attribute(group, 'potential_order', config%hydrodynamics%potential_order, err)
-    call write_attribute(group, 'unknowns_per_bead', hydro%unknowns_per_bead, err)
+    call write_attribute(group, 'unknowns_per_bead', job_result%unknowns_per_bead, err)
     call write_attribute(group, 'lubrication', merge(1, 0, config%hydrodynamics%lubrication), err)
     names = 'multipole method (Cichocki et al. 1994), Galerkin form, order L = ' // &
             str(config%hydrodynamics%multipole_order)
@@ -155,8 +155,8 @@ contains
     call write_attribute(group, 'units', 'eta = 1, lengths in d; friction maps (U, Omega) to (F, T)', err)
     call write_attribute(group, 'reference_point', 'centre of mass', err)
     call write_attribute(group, 'symmetry_error', mobility%symmetry_error, err)
-    call write_diagnostics(group, 'friction', hydro%diagnostics, err)
-    call write_diagnostics(group, 'multipole_friction', hydro%multipole_diagnostics, err)
+    call write_diagnostics(group, 'friction', job_result%diagnostics, err)
+    call write_diagnostics(group, 'multipole_friction', job_result%multipole_diagnostics, err)
     call write_attribute(group, 'friction_condition_threshold', condition_threshold, err)
     call write_attribute(group, 'friction_asymmetry_threshold', asymmetry_threshold, err)
     call write_attribute(group, 'off_pattern', mobility%off_pattern, err)
@@ -166,7 +166,7 @@ contains
     ! matrices are written transposed to read as documented, [row, column]. body_axes is not: its
     ! Fortran columns (the axes) are then the rows readers see.
     call write_replicated_dataset(ctx, group, 'friction', transpose(mobility%friction), err)
-    call write_replicated_dataset(ctx, group, 'multipole_friction', transpose(hydro%multipole_friction), err)
+    call write_replicated_dataset(ctx, group, 'multipole_friction', transpose(job_result%multipole_friction), err)
     call write_replicated_dataset(ctx, group, 'mobility', transpose(mobility%mobility), err)
     call write_replicated_dataset(ctx, group, 'body_axes', mobility%body_axes, err)
     call write_replicated_dataset(ctx, group, 'body_mobility', transpose(mobility%body_mobility), err)
@@ -180,100 +180,100 @@ contains
     call write_attribute(group, 'solve_motions', names, err)
     ! The motions are along these axes (columns): the identity, or the body axes of an
     ! off-lattice body solved in its body frame (job_plan.f90, choose_solve_frame).
-    call write_replicated_dataset(ctx, group, 'solve_axes', transpose(hydro%solve_axes), err)
-    call write_attribute(group, 'solve_iterations', hydro%solves%iterations, err)
+    call write_replicated_dataset(ctx, group, 'solve_axes', transpose(job_result%solve_axes), err)
+    call write_attribute(group, 'solve_iterations', job_result%solves%iterations, err)
     ! The plan the job ran (job_plan.f90), as the dry run prints it: its solves after symmetries
     ! and its estimate of memory and time.
-    call write_attribute(group, 'planned_solves', hydro%planned_solves, err)
-    call write_attribute(group, 'estimated_peak_memory_bytes', hydro%estimated_peak_memory_bytes, err)
-    call write_attribute(group, 'estimated_seconds', hydro%estimated_seconds, err)
+    call write_attribute(group, 'planned_solves', job_result%planned_solves, err)
+    call write_attribute(group, 'estimated_peak_memory_bytes', job_result%estimated_peak_memory_bytes, err)
+    call write_attribute(group, 'estimated_seconds', job_result%estimated_seconds, err)
     ! 0: solved; m: derived from motion m by a symmetry of the bead set (motion_symmetry.F90).
-    call write_attribute(group, 'solve_source', hydro%solves%source, err)
+    call write_attribute(group, 'solve_source', job_result%solves%source, err)
     ! 1: the solution was loaded from the checkpoint of an interrupted run (checkpoint_file.f90).
-    call write_attribute(group, 'resumed_motions', hydro%solves%resumed, err)
-    call write_attribute(group, 'symmetry_group_order', hydro%symmetry_group_order, err)
+    call write_attribute(group, 'resumed_motions', job_result%solves%resumed, err)
+    call write_attribute(group, 'symmetry_group_order', job_result%symmetry_group_order, err)
     call write_attribute(group, 'use_symmetry', merge(1, 0, config%hydrodynamics%use_symmetry), err)
-    call write_attribute(group, 'solve_converged_reason', hydro%solves%converged_reason, err)
-    call write_attribute(group, 'solve_true_relative_residual', hydro%solves%true_relative_residual, err)
-    call write_attribute(group, 'ksp_type', trim(hydro%solves%ksp_type), err)
-    call write_attribute(group, 'pc_type', trim(hydro%solves%pc_type), err)
-    call write_attribute(group, 'ksp_relative_tolerance', hydro%solves%relative_tolerance, err)
-    call write_attribute(group, 'plain_symmetry_error', hydro%solves%plain_symmetry_error, err)
-    call write_attribute(group, 'variational_correction', hydro%solves%variational_correction, err)
+    call write_attribute(group, 'solve_converged_reason', job_result%solves%converged_reason, err)
+    call write_attribute(group, 'solve_true_relative_residual', job_result%solves%true_relative_residual, err)
+    call write_attribute(group, 'ksp_type', trim(job_result%solves%ksp_type), err)
+    call write_attribute(group, 'pc_type', trim(job_result%solves%pc_type), err)
+    call write_attribute(group, 'ksp_relative_tolerance', job_result%solves%relative_tolerance, err)
+    call write_attribute(group, 'plain_symmetry_error', job_result%solves%plain_symmetry_error, err)
+    call write_attribute(group, 'variational_correction', job_result%solves%variational_correction, err)
     ! The solver's promise (theory.md T5, "Solver error bound"): |zeta_mn - zeta_mn(exact solve)|
     ! <= solver_error_bound sqrt(zeta_mm zeta_nn), for the order-L friction and the friction.
-    call write_attribute(group, 'solve_natural_relative_residual', hydro%solves%natural_relative_residual, err)
-    call write_attribute(group, 'condition_estimate', hydro%solves%condition_estimate, err)
-    call write_attribute(group, 'solver_error_bound', hydro%solves%solver_error_bound, err)
+    call write_attribute(group, 'solve_natural_relative_residual', job_result%solves%natural_relative_residual, err)
+    call write_attribute(group, 'condition_estimate', job_result%solves%condition_estimate, err)
+    call write_attribute(group, 'solver_error_bound', job_result%solves%solver_error_bound, err)
     ! Motions not computed (solve_source -1) have no solve to converge.
-    call write_attribute(group, 'all_converged', merge(1, 0, all(hydro%solves%converged_reason > 0 .or. &
-                                                                  hydro%solves%source < 0)), err)
+    call write_attribute(group, 'all_converged', merge(1, 0, all(job_result%solves%converged_reason > 0 .or. &
+                                                                  job_result%solves%source < 0)), err)
     call write_attribute(group, 'motions', trim(config%hydrodynamics%motions_text), err)
-    call write_attribute(group, 'operator', trim(hydro%operator_name), err)
-    call write_attribute(group, 'near_field_radius', hydro%near_field_radius, err)
+    call write_attribute(group, 'operator', trim(job_result%operator_name), err)
+    call write_attribute(group, 'near_field_radius', job_result%near_field_radius, err)
     ! the pfft operator's far-field settings (0 for the other operators: no approximation)
-    call write_attribute(group, 'pfft_stencil', hydro%pfft_stencil, err)
-    call write_attribute(group, 'pfft_near_radius', hydro%pfft_near_radius, err)
-    call write_attribute(group, 'near_field_cluster', hydro%near_field_cluster, err)
+    call write_attribute(group, 'pfft_stencil', job_result%pfft_stencil, err)
+    call write_attribute(group, 'pfft_near_radius', job_result%pfft_near_radius, err)
+    call write_attribute(group, 'near_field_cluster', job_result%near_field_cluster, err)
     call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
     call write_attribute(group, 'krylov_rtol_setting', config%hydrodynamics%krylov_rtol, err)
     ! accuracy_target 0: none asked for; otherwise the choice and the error the data promise
     ! (bench/accuracy/accuracy.md, against the reference run named by accuracy_reference).
-    call write_attribute(group, 'accuracy_target', hydro%accuracy%target, err)
-    if (hydro%accuracy%target > 0.0_dp) then
-      call write_attribute(group, 'accuracy_setting', trim(hydro%accuracy%setting), err)
-      call write_attribute(group, 'accuracy_expected_error', hydro%accuracy%expected_error, err)
-      call write_attribute(group, 'accuracy_target_met', merge(1, 0, hydro%accuracy%target_met), err)
-      call write_attribute(group, 'accuracy_reference', trim(hydro%accuracy%reference), err)
-      call write_attribute(group, 'accuracy_estimated_error', hydro%accuracy%estimated_error, err)
-      call write_attribute(group, 'accuracy_raised_order', hydro%accuracy%raised_order, err)
+    call write_attribute(group, 'accuracy_target', job_result%accuracy%target, err)
+    if (job_result%accuracy%target > 0.0_dp) then
+      call write_attribute(group, 'accuracy_setting', trim(job_result%accuracy%setting), err)
+      call write_attribute(group, 'accuracy_expected_error', job_result%accuracy%expected_error, err)
+      call write_attribute(group, 'accuracy_target_met', merge(1, 0, job_result%accuracy%target_met), err)
+      call write_attribute(group, 'accuracy_reference', trim(job_result%accuracy%reference), err)
+      call write_attribute(group, 'accuracy_estimated_error', job_result%accuracy%estimated_error, err)
+      call write_attribute(group, 'accuracy_raised_order', job_result%accuracy%raised_order, err)
     end if
-    call write_estimate(ctx, group, config, hydro, err)
-    call write_attribute(group, 'hydrodynamic_beads', hydro%hydrodynamic_beads, err)
-    call write_attribute(group, 'near_field_pairs', int(hydro%near_field_pairs), err)
-    call write_attribute(group, 'on_lattice', merge(1, 0, hydro%on_lattice), err)
-    call write_attribute(group, 'computed_blocks', int(hydro%computed_blocks), err)
-    call write_attribute(group, 'cached_blocks', int(hydro%cached_blocks), err)
-    call write_attribute(group, 'cache_file', trim(hydro%cache_file), err)
+    call write_estimate(ctx, group, config, job_result, err)
+    call write_attribute(group, 'hydrodynamic_beads', job_result%hydrodynamic_beads, err)
+    call write_attribute(group, 'near_field_pairs', int(job_result%near_field_pairs), err)
+    call write_attribute(group, 'on_lattice', merge(1, 0, job_result%on_lattice), err)
+    call write_attribute(group, 'computed_blocks', int(job_result%computed_blocks), err)
+    call write_attribute(group, 'cached_blocks', int(job_result%cached_blocks), err)
+    call write_attribute(group, 'cache_file', trim(job_result%cache_file), err)
     names = trim(phase_names(1))
     do k = 2, size(phase_names)
       names = names // ' ' // trim(phase_names(k))
     end do
     call write_attribute(group, 'phase_names', names, err)
-    call write_attribute(group, 'phase_seconds', hydro%seconds, err)
-    call write_attribute(group, 'peak_memory_bytes', hydro%peak_memory_bytes, err)
-    call write_attribute(group, 'phase_peak_memory_bytes', hydro%phase_peak_memory_bytes, err)
+    call write_attribute(group, 'phase_seconds', job_result%seconds, err)
+    call write_attribute(group, 'peak_memory_bytes', job_result%peak_memory_bytes, err)
+    call write_attribute(group, 'phase_peak_memory_bytes', job_result%phase_peak_memory_bytes, err)
     if (config%hydrodynamics%lubrication) then
       call write_attribute(group, 'lubrication_cutoff', config%hydrodynamics%lubrication_cutoff, err)
-      call write_attribute(group, 'lubrication_pairs', hydro%lubrication_pairs, err)
-      call write_attribute(group, 'lubrication_reference_order', hydro%lubrication_reference_order, err)
-      call write_attribute(group, 'lubrication_cached_distances', hydro%lubrication_table%cached_distances, err)
-      call write_attribute(group, 'lubrication_computed_distances', hydro%lubrication_table%computed_distances, err)
-      call write_replicated_dataset(ctx, group, 'multipole_coefficients', hydro%multipole_coefficients, err)
-      if (size(hydro%lubrication_table%distances) > 0) then
-        call write_replicated_dataset(ctx, group, 'lubrication_distances', hydro%lubrication_table%distances, err)
-        call write_replicated_dataset(ctx, group, 'lubrication_corrections', hydro%lubrication_table%correction, err)
+      call write_attribute(group, 'lubrication_pairs', job_result%lubrication_pairs, err)
+      call write_attribute(group, 'lubrication_reference_order', job_result%lubrication_reference_order, err)
+      call write_attribute(group, 'lubrication_cached_distances', job_result%lubrication_table%cached_distances, err)
+      call write_attribute(group, 'lubrication_computed_distances', job_result%lubrication_table%computed_distances, err)
+      call write_replicated_dataset(ctx, group, 'multipole_coefficients', job_result%multipole_coefficients, err)
+      if (size(job_result%lubrication_table%distances) > 0) then
+        call write_replicated_dataset(ctx, group, 'lubrication_distances', job_result%lubrication_table%distances, err)
+        call write_replicated_dataset(ctx, group, 'lubrication_corrections', job_result%lubrication_table%correction, err)
       end if
     end if
-    if (allocated(hydro%bead_forces)) then
+    if (allocated(job_result%bead_forces)) then
       ! Same bead partition as the solve; C-order readers see (N, 36): bead, 6 (motion - 1) + component.
       call block_range(ctx, n_beads, first, count)
-      call write_distributed_columns(group, 'bead_forces', hydro%bead_forces, first, n_beads, err)
+      call write_distributed_columns(group, 'bead_forces', job_result%bead_forces, first, n_beads, err)
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
 
   !> The error bar (error_estimate.f90, theory.md T14): the companion of order L - 1, the estimated
   !> error of the mobility and of the coefficients, the values extrapolated in L with theirs.
-  subroutine write_estimate(ctx, group, config, hydro, err)
+  subroutine write_estimate(ctx, group, config, job_result, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: group
     type(run_config_t), intent(in) :: config
-    type(friction_result_t), intent(in) :: hydro
+    type(friction_result_t), intent(in) :: job_result
     type(error_t), intent(inout) :: err
     type(error_estimate_t) :: e
     character(len=:), allocatable :: missing
-    e = hydro%estimate
+    e = job_result%estimate
     call write_attribute(group, 'error_estimate', merge(1, 0, e%available), err)
     if (.not. e%available) then
       if (.not. config%hydrodynamics%error_estimate) then
@@ -295,17 +295,17 @@ contains
                                                            extrapolated_entry_factor, extrapolated_block_factor], err)
     call write_attribute(group, 'estimated_error', e%largest, err)
     call write_attribute(group, 'estimated_extrapolated_error', e%largest_extrapolated, err)
-    call write_attribute(group, 'companion_order', hydro%companion_order, err)
-    call write_attribute(group, 'companion_potential_order', hydro%companion_potential_order, err)
-    call write_attribute(group, 'companion_unknowns_per_bead', hydro%companion_unknowns_per_bead, err)
-    call write_attribute(group, 'companion_iterations', hydro%companion_solves%iterations, err)
-    call write_attribute(group, 'companion_converged_reason', hydro%companion_solves%converged_reason, err)
-    call write_attribute(group, 'companion_true_relative_residual', hydro%companion_solves%true_relative_residual, err)
+    call write_attribute(group, 'companion_order', job_result%companion_order, err)
+    call write_attribute(group, 'companion_potential_order', job_result%companion_potential_order, err)
+    call write_attribute(group, 'companion_unknowns_per_bead', job_result%companion_unknowns_per_bead, err)
+    call write_attribute(group, 'companion_iterations', job_result%companion_solves%iterations, err)
+    call write_attribute(group, 'companion_converged_reason', job_result%companion_solves%converged_reason, err)
+    call write_attribute(group, 'companion_true_relative_residual', job_result%companion_solves%true_relative_residual, err)
     call write_attribute(group, 'companion_natural_relative_residual', &
-                         hydro%companion_solves%natural_relative_residual, err)
-    call write_attribute(group, 'companion_condition_estimate', hydro%companion_solves%condition_estimate, err)
-    call write_attribute(group, 'companion_solver_error_bound', hydro%companion_solves%solver_error_bound, err)
-    call write_replicated_dataset(ctx, group, 'companion_friction', transpose(hydro%companion_friction), err)
+                         job_result%companion_solves%natural_relative_residual, err)
+    call write_attribute(group, 'companion_condition_estimate', job_result%companion_solves%condition_estimate, err)
+    call write_attribute(group, 'companion_solver_error_bound', job_result%companion_solves%solver_error_bound, err)
+    call write_replicated_dataset(ctx, group, 'companion_friction', transpose(job_result%companion_friction), err)
     call write_replicated_dataset(ctx, group, 'companion_body_mobility', transpose(e%companion_mobility), err)
     call write_replicated_dataset(ctx, group, 'companion_coefficients', e%companion_coefficients, err)
     call write_replicated_dataset(ctx, group, 'body_mobility_error', transpose(e%mobility_error), err)

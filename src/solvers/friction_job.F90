@@ -95,45 +95,45 @@ contains
   !> Collective. The friction job of the model `centres` about reference_point, planned here for
   !> the ranks of ctx (the library's entry; the driver plans first, for its dry run and memory
   !> check, and runs that plan with friction_of_plan).
-  subroutine friction_of_model(ctx, settings, centres, reference_point, result, err)
+  subroutine friction_of_model(ctx, settings, centres, reference_point, job_result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
-    type(friction_result_t), intent(out) :: result
+    type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
     type(job_plan_t) :: plan
     call make_job_plan(ctx, settings, centres, reference_point, ctx%n_ranks, 1.0_dp, plan, err)
     if (err%failed) return
-    call friction_of_plan(ctx, settings, plan, result, err)
+    call friction_of_plan(ctx, settings, plan, job_result, err)
   end subroutine friction_of_model
 
   !> Collective. The friction job as planned (job_plan.f90): the solve beads in the solve frame,
   !> the operator chosen there. Solved in the body frame, the friction zeta' of the turned beads
   !> gives zeta = R zeta' R^T, R = diag(Q, Q), Q the body axes (columns), and so for the companion.
-  subroutine friction_of_plan(ctx, settings, plan, result, err)
+  subroutine friction_of_plan(ctx, settings, plan, job_result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     type(job_plan_t), intent(in) :: plan
-    type(friction_result_t), intent(out) :: result
+    type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
     real(dp) :: rotation(6, 6)
 
     if (plan%body_frame) call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // &
       str(plan%n_solves) // ' solves for the six motions (' // str(plan%lab_solves) // ' in the model''s coordinates)')
     call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, &
-                           plan%symmetry_group, result, err)
-    result%planned_solves = plan%n_solves
-    result%estimated_peak_memory_bytes = plan%estimate%peak
-    result%estimated_seconds = plan%estimate%seconds_total
+                           plan%symmetry_group, job_result, err)
+    job_result%planned_solves = plan%n_solves
+    job_result%estimated_peak_memory_bytes = plan%estimate%peak
+    job_result%estimated_seconds = plan%estimate%seconds_total
     if (err%failed .or. .not. plan%body_frame) return
-    result%solve_axes = plan%solve_axes
+    job_result%solve_axes = plan%solve_axes
     rotation = 0.0_dp
     rotation(1:3, 1:3) = plan%solve_axes
     rotation(4:6, 4:6) = plan%solve_axes
-    result%multipole_friction = turned_back(result%multipole_friction)
-    result%friction = turned_back(result%friction)
-    result%companion_multipole_friction = turned_back(result%companion_multipole_friction)
-    result%companion_friction = turned_back(result%companion_friction)
+    job_result%multipole_friction = turned_back(job_result%multipole_friction)
+    job_result%friction = turned_back(job_result%friction)
+    job_result%companion_multipole_friction = turned_back(job_result%companion_multipole_friction)
+    job_result%companion_friction = turned_back(job_result%companion_friction)
 
   contains
 
@@ -148,13 +148,13 @@ contains
 
   !> Collective. The friction job on the bead set `centres` (all beads in the solve) with the
   !> operator and the symmetry group (about reference_point) the plan found.
-  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, symmetry_group, result, err)
+  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, symmetry_group, job_result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
     character(len=*), intent(in) :: operator_name
     logical, intent(in) :: symmetry_group(:)
-    type(friction_result_t), intent(out) :: result
+    type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
     type(multipole_basis_t) :: basis
     class(multipole_operator_t), allocatable, target :: op
@@ -190,22 +190,22 @@ contains
     with_companion = settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions)
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%multipole_order, settings%potential_order)
-    result%unknowns_per_bead = basis%size
-    result%hydrodynamic_beads = size(centres, 2)
+    job_result%unknowns_per_bead = basis%size
+    job_result%hydrodynamic_beads = size(centres, 2)
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
-    result%operator_name = operator_name
+    job_result%operator_name = operator_name
     call progress_line(report, 'phase blocks: ' // str(size(centres, 2)) // ' beads in the solve, ' // &
-                       str(basis%size) // ' unknowns each, ' // trim(result%operator_name) // ' operator')
-    result%cache_file = settings%cache_file
+                       str(basis%size) // ' unknowns each, ' // trim(job_result%operator_name) // ' operator')
+    job_result%cache_file = settings%cache_file
     options%cache_file = trim(settings%cache_file)
     options%measure_plans = settings%fft_planner == 'measure'
     options%report = report
     options%pfft_stencil = settings%pfft_stencil
     options%pfft_near_radius = settings%pfft_near_radius
     if (with_companion) options%companion_unknowns = companion_unknowns(basis)
-    call new_operator(result%operator_name, op)
+    call new_operator(job_result%operator_name, op)
     own_near_field = .false.
     solver_made = .false.
     ! Every failure leaves the block through one exit below (the operator released, the phase's
@@ -215,20 +215,20 @@ contains
       call agree_on_error(ctx, err)
       if (err%failed) exit job
       matrix = op%matrix
-      result%on_lattice = op%on_lattice
-      result%computed_blocks = op%computed_blocks
-      result%cached_blocks = op%cached_blocks
-      if (result%operator_name == 'pfft') then
-        result%pfft_stencil = settings%pfft_stencil
-        result%pfft_near_radius = settings%pfft_near_radius
+      job_result%on_lattice = op%on_lattice
+      job_result%computed_blocks = op%computed_blocks
+      job_result%cached_blocks = op%cached_blocks
+      if (job_result%operator_name == 'pfft') then
+        job_result%pfft_stencil = settings%pfft_stencil
+        job_result%pfft_near_radius = settings%pfft_near_radius
       end if
       self = op%self_block
       call mark(1)
 
-      result%near_field_radius = settings%near_field_radius
-      result%near_field_cluster = settings%near_field_cluster
+      job_result%near_field_radius = settings%near_field_radius
+      job_result%near_field_cluster = settings%near_field_cluster
       call precondition(op, basis, self, settings%near_field_radius, settings%near_field_cluster, bead_blocks, near_field, &
-                        own_near_field, result%near_field_pairs, err)
+                        own_near_field, job_result%near_field_pairs, err)
       if (err%failed) exit job   ! the same self block on every rank
       call mark(2)
 
@@ -236,21 +236,21 @@ contains
                                 settings%krylov_rtol, 'solve', report, bead_blocks)
       solver_made = .true.
       if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
-        checkpoint_key(settings, centres, reference_point, basis%size, result%operator_name))
+        checkpoint_key(settings, centres, reference_point, basis%size, job_result%operator_name))
       solver%stop_after_solves = settings%stop_after_solves
-      call solve_level(solver, op, basis, projection, result%multipole_friction, result%solves, err)
+      call solve_level(solver, op, basis, projection, job_result%multipole_friction, job_result%solves, err)
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
-      call mask_uncomputed(result%solves, result%multipole_friction)
-      if (allocated(solver%symmetry)) result%symmetry_group_order = solver%symmetry%group_order
+      call mask_uncomputed(job_result%solves, job_result%multipole_friction)
+      if (allocated(solver%symmetry)) job_result%symmetry_group_order = solver%symmetry%group_order
       if (settings%bead_forces) then
-        allocate (result%bead_forces(36, count))
-        call bead_forces_of_solutions(solver, projection, result%bead_forces)
+        allocate (job_result%bead_forces(36, count))
+        call bead_forces_of_solutions(solver, projection, job_result%bead_forces)
       end if
       if (with_companion) then
         ! The companion's start: the order L - 1 part of the order-L solutions.
-        call companion_orders(settings%multipole_order, settings%potential_order, result%companion_order, &
-                              result%companion_potential_order)
-        low = make_multipole_basis(result%companion_order, result%companion_potential_order)
+        call companion_orders(settings%multipole_order, settings%potential_order, job_result%companion_order, &
+                              job_result%companion_potential_order)
+        low = make_multipole_basis(job_result%companion_order, job_result%companion_potential_order)
         unknowns = companion_unknowns(basis)
         allocate (low_start(size(unknowns) * count, 6))
         call keep_solution_part(solver, unknowns, low_start)
@@ -264,16 +264,16 @@ contains
       call release_operator()
       call mark(4)
 
-      result%friction = result%multipole_friction
-      result%companion_friction = result%companion_multipole_friction
+      job_result%friction = job_result%multipole_friction
+      job_result%companion_friction = job_result%companion_multipole_friction
       if (settings%lubrication) then
-        call lubricated(settings%multipole_order, settings%potential_order, result%lubrication_table, result%friction)
+        call lubricated(settings%multipole_order, settings%potential_order, job_result%lubrication_table, job_result%friction)
         if (with_companion .and. .not. err%failed) then
-          call lubricated(result%companion_order, result%companion_potential_order, companion_table, &
-                          result%companion_friction)
+          call lubricated(job_result%companion_order, job_result%companion_potential_order, companion_table, &
+                          job_result%companion_friction)
         end if
         if (err%failed) exit job
-        result%lubrication_reference_order = reference_order
+        job_result%lubrication_reference_order = reference_order
       end if
       call mark(5)
     end block job
@@ -283,10 +283,10 @@ contains
       PetscCallA(PetscLogStagePop(ierr))
       return
     end if
-    result%seconds(size(phase_names)) = MPI_Wtime() - start
-    call MPI_Allreduce(MPI_IN_PLACE, result%seconds, size(result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
-    call MPI_Allreduce(peak_resident_bytes(), result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
-    call MPI_Allreduce(MPI_IN_PLACE, result%phase_peak_memory_bytes, size(result%phase_peak_memory_bytes), &
+    job_result%seconds(size(phase_names)) = MPI_Wtime() - start
+    call MPI_Allreduce(MPI_IN_PLACE, job_result%seconds, size(job_result%seconds), MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    call MPI_Allreduce(peak_resident_bytes(), job_result%peak_memory_bytes, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    call MPI_Allreduce(MPI_IN_PLACE, job_result%phase_peak_memory_bytes, size(job_result%phase_peak_memory_bytes), &
                        MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
@@ -303,8 +303,8 @@ contains
       logical :: low_own_near_field
       integer(i8) :: no_pairs
 
-      result%companion_unknowns_per_bead = low%size
-      call progress_line(report, 'phase companion: order L = ' // str(result%companion_order) // ', ' // &
+      job_result%companion_unknowns_per_bead = low%size
+      call progress_line(report, 'phase companion: order L = ' // str(job_result%companion_order) // ', ' // &
                          str(low%size) // ' unknowns per bead, for the error estimate')
       call op%create_companion(ctx%comm, unknowns, low_op, err)
       call agree_on_error(ctx, err)
@@ -319,9 +319,9 @@ contains
                                   size(centres, 2, kind=i8), first, count, settings%krylov_rtol, 'companion solve', &
                                   report, low_blocks)
         call move_alloc(low_start, low_solver%initial_guess)
-        call solve_level(low_solver, low_op, low, projection(unknowns, :), result%companion_multipole_friction, &
-                         result%companion_solves, err)
-        if (.not. err%failed) call mask_uncomputed(result%companion_solves, result%companion_multipole_friction)
+        call solve_level(low_solver, low_op, low, projection(unknowns, :), job_result%companion_multipole_friction, &
+                         job_result%companion_solves, err)
+        if (.not. err%failed) call mask_uncomputed(job_result%companion_solves, job_result%companion_multipole_friction)
         call destroy_motion_solver(low_solver)
       end if
       call low_op%destroy()
@@ -390,7 +390,7 @@ contains
       local = 0.0_dp
       call add_lubrication(table, centres, reference_point, int(first), int(first + count - 1), local, local_pairs)
       call MPI_Allreduce(local, lubrication_sum, 36, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
-      call MPI_Allreduce(local_pairs, result%lubrication_pairs, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
+      call MPI_Allreduce(local_pairs, job_result%lubrication_pairs, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
       friction = friction + lubrication_sum
     end subroutine lubricated
 
@@ -408,8 +408,8 @@ contains
     !> seconds(phase) = time since the end of the previous phase; the next -log_view stage begins.
     subroutine mark(phase)
       integer, intent(in) :: phase
-      result%seconds(phase) = MPI_Wtime() - start - sum(result%seconds(1:phase - 1))
-      result%phase_peak_memory_bytes(phase) = peak_resident_bytes()
+      job_result%seconds(phase) = MPI_Wtime() - start - sum(job_result%seconds(1:phase - 1))
+      job_result%phase_peak_memory_bytes(phase) = peak_resident_bytes()
       PetscCallA(PetscLogStagePop(ierr))
       if (phase < size(stages)) then
         PetscCallA(PetscLogStagePush(stages(phase + 1), ierr))
