@@ -1,0 +1,160 @@
+#!/usr/bin/env python3
+"""everyday_jobs.py [--exe BUILD/beadmob] [--before OLD/beadmob] [--repeats 3]: the jobs people run
+most, timed as issue 24 states its targets, beside a dense RPY code of the kind a user writes in
+forty lines of numpy (grand RPY mobility of the beads, Cholesky factorisation, rigid-body
+contraction: the RPY level, less accurate than beadmob's L = 2).
+
+Rows: the paper cone's friction job; a random compact 1000-bead lattice body (Eden growth, seed
+1) and 2000 jittered off-lattice beads as whole processes (start-up included); the arrowhead and
+the four open rings' friction jobs (issue 24: each ring within 2x of the arrowhead). Every time
+is the median of `--repeats` runs on 2 ranks; with --before, the same jobs of another build run
+in alternation with this one, and the table gives the ratio of the medians.
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
+from offlattice import jittered  # noqa: E402
+
+RANKS = 2
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+
+
+def eden_body(n, seed=1):
+    """A compact random lattice body: from one bead, add a random free face neighbour of a
+    random bead until there are n (Eden growth)."""
+    rng = np.random.default_rng(seed)
+    beads, taken = [(0, 0, 0)], {(0, 0, 0)}
+    steps = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+    while len(beads) < n:
+        x, y, z = beads[rng.integers(len(beads))]
+        dx, dy, dz = steps[rng.integers(6)]
+        candidate = (x + dx, y + dy, z + dz)
+        if candidate not in taken:
+            taken.add(candidate)
+            beads.append(candidate)
+    return np.array(beads, float)
+
+
+def dense_rpy_friction(points):
+    """The 6x6 friction of rigid touching beads (radius 1/2) at the RPY level about their mean:
+    M (3N x 3N, Rotne-Prager-Yamakawa, Rotne & Prager 1969, eq. for r >= 2a), zeta = K^T M^-1 K
+    with K the rigid-body velocities of the beads; viscosity 1 (units of 6 pi eta a = 3 pi)."""
+    a = 0.5
+    n = len(points)
+    r = points[:, None, :] - points[None, :, :]
+    dist = np.linalg.norm(r, axis=-1)
+    np.fill_diagonal(dist, 1.0)
+    rhat = r / dist[..., None]
+    eye = np.eye(3)
+    outer = rhat[..., :, None] * rhat[..., None, :]
+    c1 = 3 * a / (4 * dist) * (1 + 2 * a * a / (3 * dist**2))
+    c2 = 3 * a / (4 * dist) * (1 - 2 * a * a / dist**2)
+    blocks = c1[..., None, None] * eye + c2[..., None, None] * outer
+    blocks[np.arange(n), np.arange(n)] = eye
+    mobility = blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n) / (6 * np.pi * a)
+    arm = points - points.mean(axis=0)
+    k = np.zeros((3 * n, 6))
+    for axis in range(3):
+        k[axis::3, axis] = 1.0
+        unit = np.zeros(3)
+        unit[axis] = 1.0
+        k[:, 3 + axis] = np.cross(unit, arm).reshape(-1)
+    factor = np.linalg.cholesky(mobility)
+    half = np.linalg.solve(factor, k)
+    return half.T @ half
+
+
+def write_beads(path, points):
+    np.savetxt(path, points, header="x y z (bead diameters)", fmt="%.12g")
+
+
+def run(exe, input_path, workdir):
+    """Whole-process wall time and the friction job's own time (phase 'total')."""
+    for old in Path(workdir).glob("*.h5"):
+        old.unlink()
+    start = time.perf_counter()
+    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(input_path), "-quiet"], cwd=workdir, env=ENV, check=True,
+                   stdout=subprocess.DEVNULL)
+    wall = time.perf_counter() - start
+    (result,) = [p for p in Path(workdir).glob("*.h5")]
+    with h5py.File(result) as f:
+        job = float(f["hydrodynamics"].attrs["phase_seconds"][-1])
+    return wall, job
+
+
+def median(values):
+    return float(np.median(values))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--exe", default=str(ROOT / "build" / "beadmob"))
+    parser.add_argument("--before", default="")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", default=str(Path(__file__).with_name("everyday_jobs.md")))
+    parser.add_argument("--title", default="")
+    args = parser.parse_args()
+    builds = [("this", args.exe)] + ([("before", args.before)] if args.before else [])
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        write_beads(work / "random_1000.txt", eden_body(1000))
+        write_beads(work / "jittered_2000.txt", jittered(2000))
+        jobs = [("paper cone (`shapes/cone.nml`)", ROOT / "shapes" / "cone.nml", "job", None)]
+        for name in ("random_1000", "jittered_2000"):
+            nml = work / f"{name}.nml"
+            nml.write_text(f"&run output = '{name}.h5' /\n&shape name = 'bead_file', file = '{name}.txt' /\n"
+                           "&hydrodynamics /\n")
+            jobs.append((f"{name.replace('_', ' ')} beads (whole process)", nml, "wall", name))
+        for shape in ("arrowhead", "ring_1mm", "ring_2mm", "ring_3mm", "ring_4mm"):
+            jobs.append((f"{shape} (`shapes/{shape}.nml`)", ROOT / "shapes" / f"{shape}.nml", "job", None))
+        rows = []
+        for label, nml, measure, key_name in jobs:
+            times = {key: [] for key, _ in builds}
+            for _ in range(args.repeats):
+                for key, exe in builds:   # alternated: both builds see the same machine
+                    wall, job = run(exe, nml, work)
+                    times[key].append(wall if measure == "wall" else job)
+            rows.append((label, measure, {key: median(v) for key, v in times.items()}, key_name))
+            print(label, rows[-1][2], flush=True)
+        dense = {}
+        for name in ("random_1000", "jittered_2000"):
+            points = np.loadtxt(work / f"{name}.txt")
+            seconds = []
+            for _ in range(args.repeats):
+                start = time.perf_counter()
+                dense_rpy_friction(points)
+                seconds.append(time.perf_counter() - start)
+            dense[name] = median(seconds)
+            print(name, "dense RPY", dense[name], flush=True)
+    header = "| job | measured | this build (s) |" + (" before (s) | before / this |" if args.before else "")
+    rule = "|---|---|---|" + ("---|---|" if args.before else "")
+    lines = [f"# Everyday jobs{': ' + args.title if args.title else ''}", "",
+             f"Written by `bench/everyday_jobs/everyday_jobs.py`: {RANKS} ranks, medians of {args.repeats} runs"
+             + (", the two builds alternated" if args.before else "") + "; `job` is the friction job's own time "
+             "(phase `total` in the result file), `wall` the whole process from `mpiexec` to exit.", "",
+             header, rule]
+    for label, measure, t, _ in rows:
+        line = f"| {label} | {measure} | {t['this']:.2f} |"
+        if args.before:
+            line += f" {t['before']:.2f} | {t['before'] / t['this']:.2f} |"
+        lines.append(line)
+    lines += ["", "The dense RPY code beside them (numpy, one process, median of the same repeats): "
+              + ", ".join(f"{name.replace('_', ' ')} beads {seconds:.2f} s" for name, seconds in dense.items())
+              + ". beadmob's whole process against it: "
+              + ", ".join(f"{name.replace('_', ' ')} {t['this'] / dense[name]:.2f}x" for _, _, t, name in rows if name)
+              + " (above 1: beadmob slower)."]
+    Path(args.out).write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
