@@ -104,7 +104,7 @@ def main():
     parser.add_argument("--out", default=str(Path(__file__).with_name("everyday_jobs.md")))
     parser.add_argument("--title", default="")
     args = parser.parse_args()
-    builds = [("this", args.exe)] + ([("before", args.before)] if args.before else [])
+    builds = [("this", os.path.abspath(args.exe))] + ([("before", os.path.abspath(args.before))] if args.before else [])
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
         write_beads(work / "random_1000.txt", eden_body(1000))
