@@ -196,8 +196,7 @@ contains
     status = 0
     select case (option%kind)
     case (real_number)
-      read (value, *, iostat=status) number
-      if (verify(value, '0123456789.eEdD+-') > 0) status = 1
+      if (.not. reads_as_real(value, number)) status = 1
     case (integer_number)
       read (value, *, iostat=status) whole
       if (verify(value, '0123456789+-') > 0) status = 1
@@ -254,9 +253,7 @@ contains
     type(friction_settings_t), intent(inout) :: job
     type(error_t), intent(inout) :: err
     real(dp) :: target
-    integer :: status
-    read (value, *, iostat=status) target
-    if (status /= 0 .or. len(value) == 0 .or. verify(value, '0123456789.eEdD+-') > 0) then
+    if (.not. reads_as_real(value, target)) then
       call raise(err, "-accuracy needs a relative error between 0 and 1 (e.g. 1e-2), got '" // value // "'")
     else if (.not. (target > 0.0_dp .and. target < 1.0_dp)) then
       call raise(err, '-accuracy must be a relative error between 0 and 1 (e.g. 1e-2), got ' // value)
@@ -265,6 +262,17 @@ contains
       job%accuracy_on_command_line = .true.
     end if
   end subroutine store_accuracy_target
+
+  !> Whether `text` is a real number (digits, point, exponent and signs only: list-directed input
+  !> alone would also take 'T' or '1,2'), and its value.
+  logical function reads_as_real(text, value)
+    character(len=*), intent(in) :: text
+    real(dp), intent(out) :: value
+    integer :: status
+    value = 0.0_dp
+    read (text, *, iostat=status) value
+    reads_as_real = status == 0 .and. len(text) > 0 .and. verify(text, '0123456789.eEdD+-') == 0
+  end function reads_as_real
 
   !> The beadmob option that `name` is a misspelling of (0: none): at most one edit (a letter
   !> added, dropped, changed, or two swapped) for names up to 6 letters, two beyond.

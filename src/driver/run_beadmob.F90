@@ -81,9 +81,12 @@ contains
     call agree_on_error(ctx, err)
     if (err%failed) return
     if (config%hydrodynamics%enabled) then
-      ! Same options and input on every rank: the same choice (or error) everywhere.
-      call apply_accuracy_target(config, on_unit_lattice(model%centres), choice, err)
-      if (err%failed) return
+      ! Same options and input on every rank: the same choice (or error) everywhere. (The lattice
+      ! test, a pass over the beads, only when a target asks for it.)
+      if (config%hydrodynamics%accuracy > 0.0_dp) then
+        call apply_accuracy_target(config, on_unit_lattice(model%centres), choice, err)
+        if (err%failed) return
+      end if
       ! The error bar: as the input says, else up to default_estimate_order and for a target.
       if (.not. config%hydrodynamics%error_estimate_given) config%hydrodynamics%error_estimate = &
         config%hydrodynamics%multipole_order <= default_estimate_order .or. choice%target > 0.0_dp
@@ -214,7 +217,7 @@ contains
     end subroutine meet_accuracy_target
   end subroutine run_beadmob
 
-  !> An accuracy target (&hydrodynamics accuracy, or -accuracy on the command line, which wins)
+  !> An accuracy target (&hydrodynamics accuracy > 0, or -accuracy on the command line, which wins)
   !> sets L, the sigma = 2 degree, the shell and the Krylov tolerance to the cheapest candidate
   !> the benchmark data say reaches it (accuracy_choice.f90). It refuses to share these choices
   !> with the input or -ksp_rtol: the promise holds only for the settings it chose.
@@ -224,7 +227,6 @@ contains
     type(accuracy_choice_t), intent(out) :: choice
     type(error_t), intent(inout) :: err
     associate (job => config%hydrodynamics)
-      if (job%accuracy == 0.0_dp) return
       if (job%accuracy_on_command_line .and. job%choices_given) then
         call raise(err, '-accuracy chooses multipole_order, potential_order, shell_layers and krylov_rtol; ' // &
                    config%source // ' sets some of them: give either -accuracy or those')
