@@ -96,7 +96,7 @@ contains
     else
       write (*, '(a)') '  operator:             ' // trim(e%operator_name)
     end if
-    write (*, '(a)') '  canonical blocks:     ' // str(e%canonical_blocks) // ' (by quadrature)'
+    write (*, '(a)') '  canonical blocks:     ' // str(e%canonical_blocks) // ' (from the axial table)'
     write (*, '(a)') '  memory per rank:      ' // gib_text(e%peak) // ' GiB (' // trim(breakdown(e)) // ')'
     if (limit < huge(1.0_dp)) then
       write (*, '(a)') '  memory a rank can have: ' // gib_text(limit) // ' GiB' // either(limit_given, ' (-memory_limit)', &

@@ -12,7 +12,8 @@ module beadmob_bead_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
-  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, direct_seconds, &
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, &
+                                   lattice_blocks_seconds, direct_seconds, &
                                    transform_bytes
   use beadmob_axial_table, only: axial_nodes
   implicit none
@@ -90,7 +91,7 @@ contains
     end select
   end subroutine direct_companion
 
-  !> multipole_operator_t%cost. Lattice: the canonical blocks by quadrature and the expanded
+  !> multipole_operator_t%cost. Lattice: the canonical blocks (axial table) and the expanded
   !> box table on every rank; off the lattice: a block per pair of this rank's rows, from the
   !> axial table (2 L + 6 quadratures) turned to each pair (about a hundredth of a quadrature).
   !> The companion copies its sub-blocks; a product reads every block once.
@@ -103,7 +104,7 @@ contains
       cost%canonical_blocks = canonical_blocks_of(size%spans)
       cost%blocks = block_bytes * cost%canonical_blocks + transform_bytes(size)
       cost%kernel = block_bytes * product(real(2 * size%spans + 1, dp))
-      cost%seconds_setup = quadrature_seconds(size) * cost%canonical_blocks / size%n_ranks
+      cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks)
     else
       cost%kernel = block_bytes * real(size%solve_beads, dp) * size%local_beads
       cost%seconds_setup = quadrature_seconds(size) * (axial_nodes(size%order) + &

@@ -1,8 +1,8 @@
 !> The two-bead blocks an operator product needs, computed once. Beads on a cubic lattice of
 !> spacing d (the paper's models) have blocks that depend on the integer lattice displacement
-!> only: one table over the displacement box [-span, span]^3 serves every pair. Quadrature is done
-!> only for the canonical displacements (d_1 >= d_2 >= d_3 >= 0), shared over the MPI ranks; every
-!> other block follows by a lattice symmetry, A(Q c) = D_Q A(c) D_Q^T (theory.md T4).
+!> only: one table over the displacement box [-span, span]^3 serves every pair. Blocks are
+!> computed only for the canonical displacements (d_1 >= d_2 >= d_3 >= 0), from the axial table
+!> (no quadrature per block), shared over the MPI ranks; every other block follows by a lattice symmetry, A(Q c) = D_Q A(c) D_Q^T (theory.md T4).
 !> Two forms: the compact one keeps the canonical blocks and the D_Q only (O(span^3 / 6) blocks,
 !> what the FFT operator needs: each rank forms the blocks of its own FFT slab from it), the
 !> expanded one also the whole displacement box (the direct operator's lookups). Off-lattice bead
@@ -16,7 +16,6 @@ module beadmob_block_table
   use beadmob_strings, only: str
   use beadmob_parallel, only: even_shares
   use beadmob_multipole_basis, only: multipole_basis_t, bead_radius
-  use beadmob_pair_blocks, only: pair_block
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
   use beadmob_lattice_symmetry, only: n_symmetries, canonical_displacement, basis_transforms
   use beadmob_table_cache, only: cache_key_t, read_cached_blocks, write_cached_blocks, warn_cache
@@ -28,13 +27,16 @@ module beadmob_block_table
 
   !> Largest block store allowed per rank (bytes) before refusing an off-lattice model.
   real(dp), parameter :: max_store_bytes = 8.0e9_dp
-  !> Part of the cache key of the blocks: bump it whenever pair_block, its quadrature or the
+  !> Part of the cache key of the blocks: bump it whenever the axial table, pair_block's quadrature or the
   !> multipole basis (functions, ordering, normalisation) change, so cached blocks of the old
   !> formulas are no longer used.
-  integer, parameter :: block_formula_version = 1
-  !> pair_block's quadrature rule (pair_blocks.f90), also in the key: a changed rule shows there.
-  character(len=*), parameter :: pair_block_rule = 'Gauss-Legendre n_theta = ceiling((40 + 1.5 (L + 3)) / ' // &
-                                                   'log rho) / 2 + L + 8 within [L + 8, 400], trapezoid n_phi = 2 max|k| + 8'
+  integer, parameter :: block_formula_version = 2
+  !> How the blocks are evaluated (axial_table.f90 and pair_blocks.f90), also in the key: a
+  !> changed rule shows there.
+  character(len=*), parameter :: pair_block_rule = 'axial table at 2 L + 6 Chebyshev nodes in 1/r (blocks by ' // &
+                                                   'Gauss-Legendre n_theta = ceiling((40 + 1.5 (L + 3)) / log rho) / 2 + ' // &
+                                                   'L + 8 within [L + 8, 400], trapezoid n_phi = 2 max|k| + 8), turned ' // &
+                                                   'to the displacement by D_Q'
 
   type :: block_table_t
     logical :: on_lattice = .false.
@@ -53,7 +55,7 @@ module beadmob_block_table
     real(dp), allocatable :: transforms(:, :, :)
     integer, allocatable :: transform_count(:, :), transform_column(:, :, :)
     real(dp), allocatable :: transform_value(:, :, :)
-    integer(i8) :: computed_blocks = 0         ! blocks evaluated by quadrature (all ranks)
+    integer(i8) :: computed_blocks = 0         ! blocks computed (all ranks; off lattice: axial table nodes)
     integer(i8) :: cached_blocks = 0           ! blocks read from the table cache
     !> The table cache file ('' or unallocated: none). Callers that reach make_block_table
     !> through an operator's create routine set it in the operator's table before that call.
@@ -78,7 +80,7 @@ contains
     key%name = 'L' // str(basis%order) // '_L2_' // str(basis%potential_order)
     key%text = 'two-bead Galerkin blocks of canonical lattice displacements (units of d); multipole_order = ' // &
                str(basis%order) // ', potential_order = ' // str(basis%potential_order) // ', unknowns_per_bead = ' // &
-               str(basis%size) // ', bead_radius = ' // str(bead_radius) // '; quadrature: ' // pair_block_rule // &
+               str(basis%size) // ', bead_radius = ' // str(bead_radius) // '; blocks: ' // pair_block_rule // &
                '; block_formula_version = ' // str(block_formula_version)
   end function block_cache_key
 
@@ -123,7 +125,7 @@ contains
   end subroutine make_block_table
 
   !> The canonical blocks (d_1 >= d_2 >= d_3 >= 0, c_k <= the k-th largest span: exactly the
-  !> sorted |d| of the box's displacements) by quadrature shared over the ranks, those not found
+  !> sorted |d| of the box's displacements) from the axial table shared over the ranks, those not found
   !> in the table cache; the D_Q dense and by rows; with `expand`, also every block of the box by
   !> the lattice symmetries on the half box and A(-d) = A(d)^T on the other half.
   subroutine fill_lattice_table(comm, basis, expand, table, err)
@@ -139,6 +141,7 @@ contains
     logical, allocatable :: known(:)
     logical :: caching
     type(error_t) :: cache_err, write_err
+    type(axial_table_t) :: axial
     real(dp) :: bytes
     integer :: stat
 
@@ -192,7 +195,7 @@ contains
     call MPI_Bcast(caching, 1, MPI_LOGICAL, 0, comm, ierr)
     if (caching) call take_cached_blocks()
 
-    ! Quadrature for the rest, shared over the ranks: each rank computes its share in place in
+    ! The rest shared over the ranks: each rank computes its share in place in
     ! the gathered array (no second copy of the blocks), then one Allgatherv.
     missing = pack([(h, h = 1, n_canonical)], .not. known)
     n_missing = size(missing)
@@ -207,8 +210,11 @@ contains
         return
       end if
     end if
+    ! Each block from the axial table turned to the displacement (theory.md T15): exact to
+    ! rounding for every distance >= d, a quadrature per table node instead of one per block.
+    if (n_missing > 0) call make_axial_table(basis, axial, comm)
     do h = offsets(rank) + 1, offsets(rank) + mine
-      call pair_block(basis, real(canonical_list(:, missing(h)), dp), gathered(:, :, h))
+      call rotated_block(axial, real(canonical_list(:, missing(h)), dp), gathered(:, :, h))
     end do
     counts = counts * nb * nb
     offsets = offsets * nb * nb

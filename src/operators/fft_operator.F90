@@ -44,7 +44,8 @@ module beadmob_fft_operator
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block, lattice_block_entries
   use beadmob_unit_lattice, only: lattice_tolerance
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
-  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, fill_seconds, &
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, lattice_blocks_seconds, &
+                                   fill_seconds, &
                                    fft_seconds, multiply_seconds, transpose_fraction, transform_bytes
   implicit none
   private
@@ -242,8 +243,8 @@ contains
     cost%fft_buffer = 16 * nb * max(frequencies, real_planes * cost%fft_box(2) * (cost%fft_box(1) / 2 + 1))
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     cost%companion = cost%fft_buffer * size%nb_low / nb * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
-    cost%seconds_setup = (quadrature_seconds(size) * cost%canonical_blocks &
-                          + fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
+    cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
+                         + (fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
                           + ceiling(packed / nb) * fft_seconds * nb * sites * log_sites) / size%n_ranks
     cost%seconds_product = (2 * fft_seconds * nb * sites * log_sites + multiply_seconds * packed * sites / 2) / size%n_ranks
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * sites * log_sites &

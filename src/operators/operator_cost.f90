@@ -5,9 +5,10 @@
 module beadmob_operator_cost
   use beadmob_kinds, only: dp, i8
   use beadmob_block_table, only: canonical_count
+  use beadmob_axial_table, only: axial_nodes
   implicit none
   private
-  public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, transform_bytes
+  public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, transform_bytes, lattice_blocks_seconds
   public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction
 
   ! Rates (seconds) measured on the development machine (one core per rank).
@@ -38,7 +39,7 @@ module beadmob_operator_cost
   type :: operator_cost_t
     real(dp) :: blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, transient = 0, companion = 0
     real(dp) :: seconds_setup = 0, seconds_product = 0, seconds_low_product = 0
-    integer(i8) :: canonical_blocks = 0     ! blocks by quadrature (lattice models)
+    integer(i8) :: canonical_blocks = 0     ! canonical blocks computed (lattice models)
     integer :: fft_box(3) = 0               ! padded box, slow axis last (0: no FFT)
   end type operator_cost_t
 
@@ -53,6 +54,15 @@ contains
     points = ((40 + 1.5_dp * (size%order + 3)) / (2 * log(2.0_dp)) + size%order + 8) * (2 * size%order + 8)
     quadrature_seconds = quadrature_seconds_l2 * points / 532 * size%nb / 16 + 6 * points * size%nb**2 / 2.5e10_dp
   end function quadrature_seconds
+
+  !> The canonical blocks of a lattice model (block_table.f90): 2 L + 6 quadratures of the axial
+  !> table, then each block turned from it (about a hundredth of a quadrature), shared over the ranks.
+  pure real(dp) function lattice_blocks_seconds(size, canonical_blocks)
+    type(job_size_t), intent(in) :: size
+    integer(i8), intent(in) :: canonical_blocks
+    lattice_blocks_seconds = quadrature_seconds(size) * (axial_nodes(size%order) + real(canonical_blocks, dp) / 100) &
+                             / size%n_ranks
+  end function lattice_blocks_seconds
 
   !> Bytes of the 48 lattice symmetries' basis transforms (lattice_symmetry.f90), dense: held by
   !> the lattice block table and again by the motion symmetries (motion_symmetry.F90). At high L
