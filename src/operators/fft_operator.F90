@@ -838,17 +838,19 @@ contains
   end subroutine apply_fft_operator
 
   !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f; K^(f) is kernel(:, f), or with
-  !> `map` (a companion) kernel(map, f).
+  !> `map` (a companion) kernel(map, f), gathered into a fixed-size copy (no temporary per frequency).
   pure subroutine multiply_spectrum(nb, n_even, n_frequencies, kernel, spectrum, map)
     integer, intent(in) :: nb, n_even
     integer(i8), intent(in) :: n_frequencies
     real(dp), intent(in) :: kernel(:, :)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
     integer, intent(in), optional :: map(:)
+    real(dp) :: gathered(nb * (nb + 1) / 2)
     integer(i8) :: f
     if (present(map)) then
       do f = 1, n_frequencies
-        call multiply_frequency(nb, n_even, kernel(map, f), spectrum(:, f))
+        gathered = kernel(map, f)
+        call multiply_frequency(nb, n_even, gathered, spectrum(:, f))
       end do
     else
       do f = 1, n_frequencies
@@ -858,32 +860,34 @@ contains
   end subroutine multiply_spectrum
 
   !> x <- K^ x, K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper triangle `packed`
-  !> (module header). Column t of the triangle gives y(s) += K(s, t) x(t) for s < t and, by
-  !> symmetry, y(t) += K(t, s) x(s): contiguous loops over the kernel column.
+  !> (module header), in real arithmetic: with K' = [R_ee, J_eo; J_eo^T, R_oo] (the packed numbers
+  !> themselves, real symmetric) and x = u + i v,
+  !>   K' [u_e; -v_o] = [Re y_e; -Im y_o],   K' [v_e; u_o] = [Im y_e; Re y_o],
+  !> two real vectors through one pass over the triangle: column t gives w(:, s) += K'(s, t) z(:, t)
+  !> for s < t and, by symmetry, w(:, t) += K'(s, t) z(:, s).
   pure subroutine multiply_frequency(nb, n_even, packed, spectrum)
     integer, intent(in) :: nb, n_even
     real(dp), intent(in) :: packed(:)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
-    complex(C_DOUBLE_COMPLEX), parameter :: i_unit = (0.0_dp, 1.0_dp)
-    complex(C_DOUBLE_COMPLEX) :: x(nb), y(nb), ix
-    integer :: t, top
-    x = spectrum
-    y = 0.0_dp
-    do t = 1, n_even                  ! even-even: real symmetric
-      top = t * (t - 1) / 2
-      y(1:t - 1) = y(1:t - 1) + packed(top + 1:top + t - 1) * x(t)
-      y(t) = y(t) + sum(packed(top + 1:top + t - 1) * x(1:t - 1)) + packed(top + t) * x(t)
+    real(dp) :: z(2, nb), w(2, nb), k_st, column_sum(2)
+    integer :: s, t, top
+    z(1, 1:n_even) = real(spectrum(1:n_even), dp)
+    z(2, 1:n_even) = aimag(spectrum(1:n_even))
+    z(1, n_even + 1:nb) = -aimag(spectrum(n_even + 1:nb))
+    z(2, n_even + 1:nb) = real(spectrum(n_even + 1:nb), dp)
+    w = 0.0_dp
+    top = 0
+    do t = 1, nb
+      column_sum = 0.0_dp
+      do s = 1, t - 1
+        k_st = packed(top + s)
+        w(:, s) = w(:, s) + k_st * z(:, t)
+        column_sum = column_sum + k_st * z(:, s)
+      end do
+      w(:, t) = w(:, t) + column_sum + packed(top + t) * z(:, t)
+      top = top + t
     end do
-    do t = n_even + 1, nb
-      top = t * (t - 1) / 2
-      ! even-odd: K(s, t) = i J(s, t), K(t, s) = -i J(s, t)
-      ix = i_unit * x(t)
-      y(1:n_even) = y(1:n_even) + packed(top + 1:top + n_even) * ix
-      y(t) = y(t) - i_unit * sum(packed(top + 1:top + n_even) * x(1:n_even))
-      ! odd-odd: real symmetric
-      y(n_even + 1:t - 1) = y(n_even + 1:t - 1) + packed(top + n_even + 1:top + t - 1) * x(t)
-      y(t) = y(t) + sum(packed(top + n_even + 1:top + t - 1) * x(n_even + 1:t - 1)) + packed(top + t) * x(t)
-    end do
-    spectrum = y
+    spectrum(1:n_even) = cmplx(w(1, 1:n_even), w(2, 1:n_even), kind=C_DOUBLE_COMPLEX)
+    spectrum(n_even + 1:nb) = cmplx(w(2, n_even + 1:nb), -w(1, n_even + 1:nb), kind=C_DOUBLE_COMPLEX)
   end subroutine multiply_frequency
 end module beadmob_fft_operator
