@@ -36,6 +36,7 @@ module beadmob_fft_operator
   use petscmat
   use, intrinsic :: iso_c_binding
   use beadmob_kinds, only: dp, i8
+  use, intrinsic :: iso_fortran_env, only: error_unit
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
@@ -43,6 +44,7 @@ module beadmob_fft_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block, lattice_block_entries
   use beadmob_unit_lattice, only: lattice_tolerance
+  use beadmob_file_system, only: rename_file, remove_file
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, lattice_blocks_seconds, &
                                    fill_seconds, &
@@ -56,7 +58,7 @@ module beadmob_fft_operator
   ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
   ! included because gfortran's INCLUDE (and cpp) does not find its nested include 'fftw3.f03'
   ! without an -I for the FFTW include directory, which the build does not pass.
-  integer(C_INT), parameter :: FFTW_MEASURE = 0, FFTW_ESTIMATE = 64
+  integer(C_INT), parameter :: FFTW_MEASURE = 0, FFTW_ESTIMATE = 64, FFTW_WISDOM_ONLY = 2097152
   integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_IN = 536870912
   integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_OUT = 1073741824
   integer(C_INTPTR_T), parameter :: FFTW_MPI_DEFAULT_BLOCK = 0
@@ -108,6 +110,22 @@ module beadmob_fft_operator
       complex(C_DOUBLE_COMPLEX), dimension(*), intent(inout) :: in
       real(C_DOUBLE), dimension(*), intent(out) :: out
     end subroutine fftw_mpi_execute_dft_c2r
+    integer(C_INT) function fftw_import_wisdom_from_filename(path) bind(C, name='fftw_import_wisdom_from_filename')
+      import :: C_INT, C_CHAR
+      character(kind=C_CHAR), dimension(*), intent(in) :: path
+    end function fftw_import_wisdom_from_filename
+    integer(C_INT) function fftw_export_wisdom_to_filename(path) bind(C, name='fftw_export_wisdom_to_filename')
+      import :: C_INT, C_CHAR
+      character(kind=C_CHAR), dimension(*), intent(in) :: path
+    end function fftw_export_wisdom_to_filename
+    subroutine fftw_mpi_broadcast_wisdom(comm) bind(C, name='fftw_mpi_broadcast_wisdom_f03')
+      import :: C_INT32_T
+      integer(C_INT32_T), value :: comm
+    end subroutine fftw_mpi_broadcast_wisdom
+    subroutine fftw_mpi_gather_wisdom(comm) bind(C, name='fftw_mpi_gather_wisdom_f03')
+      import :: C_INT32_T
+      integer(C_INT32_T), value :: comm
+    end subroutine fftw_mpi_gather_wisdom
     subroutine fftw_destroy_plan(p) bind(C, name='fftw_destroy_plan')
       import :: C_PTR
       type(C_PTR), value :: p
@@ -133,6 +151,9 @@ module beadmob_fft_operator
     !> set-up cost of about ten products, but the chosen algorithm, hence the rounding, may vary
     !> from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit).
     logical :: measure_plans = .true.
+    !> Measured plans are remembered between runs in FFTW wisdom next to the table cache
+    !> (<cache file>.fftw_wisdom; none without a cache): a later run on the same box plans at once
+    !> (plans_from_wisdom of the base type).
     integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
     integer(C_INTPTR_T) :: slab_start = 0
     integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
@@ -566,6 +587,7 @@ contains
     integer(C_INTPTR_T) :: c_order(3), complex_shape(3), howmany, alloc_local, freq_planes, freq_start
     integer(C_INT) :: planner
     real(dp) :: entries
+    character(len=:), allocatable :: wisdom_file
 
     if (.not. fftw_mpi_started) then
       call fftw_mpi_init()
@@ -614,16 +636,80 @@ contains
     ! In place: the real slab and its spectrum share the buffer (which FFTW_MEASURE overwrites
     ! while planning: nothing is in it yet).
     planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
-    op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
-                                            op%real_data, op%spectrum, comm, &
-                                            ior(planner, FFTW_MPI_TRANSPOSED_OUT))
-    op%backward = fftw_mpi_plan_many_dft_c2r(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
-                                             op%spectrum, op%real_data, comm, &
-                                             ior(planner, FFTW_MPI_TRANSPOSED_IN))
-    if (.not. (c_associated(op%forward) .and. c_associated(op%backward))) &
+    wisdom_file = ''
+    if (op%measure_plans .and. allocated(op%table%cache_file)) then
+      if (len_trim(op%table%cache_file) > 0) wisdom_file = trim(op%table%cache_file) // '.fftw_wisdom'
+    end if
+    op%plans_from_wisdom = .false.
+    if (len(wisdom_file) > 0) then
+      ! Plans from remembered wisdom only (FFTW_WISDOM_ONLY: no plan if the box is new to it).
+      call recall_wisdom(comm, wisdom_file)
+      call make_plans(ior(planner, FFTW_WISDOM_ONLY))
+      op%plans_from_wisdom = c_associated(op%forward) .and. c_associated(op%backward)
+      if (.not. op%plans_from_wisdom) call free_plans()
+    end if
+    if (.not. op%plans_from_wisdom) call make_plans(planner)
+    if (.not. (c_associated(op%forward) .and. c_associated(op%backward))) then
       call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
                  str(op%box(3)) // ' transforms')
+    else if (len(wisdom_file) > 0 .and. .not. op%plans_from_wisdom) then
+      call remember_wisdom(comm, wisdom_file)
+    end if
+
+  contains
+
+    subroutine make_plans(flags)
+      integer(C_INT), intent(in) :: flags
+      op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
+                                              op%real_data, op%spectrum, comm, ior(flags, FFTW_MPI_TRANSPOSED_OUT))
+      op%backward = fftw_mpi_plan_many_dft_c2r(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
+                                               op%spectrum, op%real_data, comm, ior(flags, FFTW_MPI_TRANSPOSED_IN))
+    end subroutine make_plans
+
+    subroutine free_plans()
+      if (c_associated(op%forward)) call fftw_destroy_plan(op%forward)
+      if (c_associated(op%backward)) call fftw_destroy_plan(op%backward)
+      op%forward = C_NULL_PTR
+      op%backward = C_NULL_PTR
+    end subroutine free_plans
   end subroutine plan_transforms
+
+  !> Collective. Rank 0 reads the wisdom file (missing: nothing; unreadable: a warning) and every
+  !> rank gets it. Wisdom only chooses among FFTW's exact algorithms: a file from another machine
+  !> costs speed at worst, never accuracy.
+  subroutine recall_wisdom(comm, path)
+    MPI_Comm, intent(in) :: comm
+    character(len=*), intent(in) :: path
+    integer :: rank, ierr
+    logical :: exists
+    call MPI_Comm_rank(comm, rank, ierr)
+    if (rank == 0) then
+      inquire (file=path, exist=exists)
+      if (exists) then
+        if (fftw_import_wisdom_from_filename(path // C_NULL_CHAR) == 0) write (error_unit, '(a)') &
+          "beadmob: warning: FFTW wisdom file '" // path // "' could not be read; planning anew and rewriting it"
+      end if
+    end if
+    call fftw_mpi_broadcast_wisdom(int(comm, C_INT32_T))
+  end subroutine recall_wisdom
+
+  !> Collective. The wisdom of every rank gathered (the recalled and the new plans); rank 0
+  !> writes it to a temporary file renamed over `path`: a reader never sees half a file.
+  subroutine remember_wisdom(comm, path)
+    MPI_Comm, intent(in) :: comm
+    character(len=*), intent(in) :: path
+    integer :: rank, ierr
+    logical :: written
+    call fftw_mpi_gather_wisdom(int(comm, C_INT32_T))
+    call MPI_Comm_rank(comm, rank, ierr)
+    if (rank /= 0) return
+    written = fftw_export_wisdom_to_filename(path // '.partial' // C_NULL_CHAR) /= 0
+    if (written) written = rename_file(path // '.partial', path)
+    if (.not. written) then
+      write (error_unit, '(a)') "beadmob: warning: FFTW wisdom file '" // path // "' could not be written"
+      call remove_file(path // '.partial')
+    end if
+  end subroutine remember_wisdom
 
   !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through the
   !> operator's own plan (no extra plan; the transient memory is the one buffer). Each rank forms

@@ -36,6 +36,7 @@ module beadmob_multipole_operator
     logical :: on_lattice = .false.
     integer(i8) :: computed_blocks = 0            ! pair blocks (or table nodes) by quadrature
     integer(i8) :: cached_blocks = 0              ! pair blocks read from the table cache
+    logical :: plans_from_wisdom = .false.        ! FFT plans from the wisdom remembered with the cache
     Mat :: matrix                                 ! y = A x by MatMult; valid after create
     !> The matrix is assembled and exact (the dense operator): its Cholesky factorisation is the
     !> solve's preconditioner, instead of the single-bead blocks.

@@ -100,6 +100,7 @@ contains
     this%stencil = options%pfft_stencil
     this%near_radius = options%pfft_near_radius
     this%grid%measure_plans = options%measure_plans
+    if (allocated(options%cache_file)) this%grid%table%cache_file = options%cache_file
     if (allocated(options%companion_unknowns)) then
       call create_pfft_operator(comm, basis, centres, first_bead, n_local, this, matrix, err, options%report, &
                                 options%companion_unknowns)
@@ -109,6 +110,7 @@ contains
     if (err%failed) return
     this%matrix = matrix
     this%computed_blocks = this%grid%table%computed_blocks
+    this%plans_from_wisdom = this%grid%plans_from_wisdom
   end subroutine create_pfft
 
   subroutine pfft_companion(this, comm, unknowns, companion, err)

@@ -67,6 +67,7 @@ module beadmob_friction_job
     integer(i8) :: computed_blocks = 0
     integer(i8) :: cached_blocks = 0               ! lattice blocks read from the table cache
     character(len=1024) :: cache_file = ''         ! the table cache used ('' = none)
+    logical :: plans_from_wisdom = .false.         ! FFT plans remembered with the cache (fft_operator.F90)
     integer :: lubrication_pairs = 0
     integer :: lubrication_reference_order = 0
     type(lubrication_table_t) :: lubrication_table
@@ -218,6 +219,7 @@ contains
       job_result%on_lattice = op%on_lattice
       job_result%computed_blocks = op%computed_blocks
       job_result%cached_blocks = op%cached_blocks
+      job_result%plans_from_wisdom = op%plans_from_wisdom
       if (job_result%operator_name == 'pfft') then
         job_result%pfft_stencil = settings%pfft_stencil
         job_result%pfft_near_radius = settings%pfft_near_radius
