@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""everyday_jobs.py [--exe BUILD/beadmob] [--before OLD/beadmob] [--repeats 3]: the jobs people run
+"""everyday_jobs.py [--exe BUILD/beadmob] [--before OLD/beadmob] [--repeats 3] [--sphere]: the jobs people run
 most, timed as issue 24 states its targets, beside a dense RPY code of the kind a user writes in
 forty lines of numpy (grand RPY mobility of the beads, Cholesky factorisation, rigid-body
 contraction: the RPY level, less accurate than beadmob's L = 2).
@@ -8,7 +8,11 @@ Rows: the paper cone's friction job; a random compact 1000-bead lattice body (Ed
 1) and 2000 jittered off-lattice beads as whole processes (start-up included); the arrowhead and
 the four open rings' friction jobs (issue 24: each ring within 2x of the arrowhead). Every time
 is the median of `--repeats` runs on 2 ranks; with --before, the same jobs of another build run
-in alternation with this one, and the table gives the ratio of the medians.
+in alternation with this one, and the table gives the ratio of the medians and whether the two
+builds' friction agrees within what the solver promises for both (tests/e2e/solver_promise.py:
+each run within its stated bound of the exact solve). --sphere adds the filled lattice sphere of
+radius 62.1 (about 1e6 beads), one run per build: job time, peak memory per rank and the
+coefficients with their error bar.
 """
 import argparse
 import os
@@ -23,7 +27,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
+sys.path.insert(0, str(ROOT / "tests" / "e2e"))
 from offlattice import jittered  # noqa: E402
+import solver_promise  # noqa: E402
 
 RANKS = 2
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
@@ -79,7 +85,8 @@ def write_beads(path, points):
 
 
 def run(exe, input_path, workdir):
-    """Whole-process wall time and the friction job's own time (phase 'total')."""
+    """Whole-process wall time, the friction job's own time (phase 'total') and what the run
+    computed (friction, its solver bound, coefficients and error bar, peak memory per rank)."""
     for old in Path(workdir).glob("*.h5"):
         old.unlink()
     start = time.perf_counter()
@@ -88,8 +95,21 @@ def run(exe, input_path, workdir):
     wall = time.perf_counter() - start
     (result,) = [p for p in Path(workdir).glob("*.h5")]
     with h5py.File(result) as f:
-        job = float(f["hydrodynamics"].attrs["phase_seconds"][-1])
-    return wall, job
+        h = f["hydrodynamics"]
+        job = float(h.attrs["phase_seconds"][-1])
+        record = {"friction": h["friction"][()], "multipole_friction": h["multipole_friction"][()],
+                  "bound": solver_promise.bound(h), "coefficients": h["coefficients"][()],
+                  "error": h["coefficient_error"][()] if "coefficient_error" in h else None,
+                  "memory": float(h.attrs["peak_memory_bytes"]) / 2**30}
+    return wall, job, record
+
+
+def agreement(this, before):
+    """Largest |friction difference| of two runs as a fraction of what their solver bounds allow."""
+    if this["bound"] is None or before["bound"] is None:
+        return float("nan")
+    allowed = solver_promise.allowed_difference([this["bound"], before["bound"]], this["multipole_friction"])
+    return float(np.nanmax(np.abs(this["friction"] - before["friction"]) / allowed))
 
 
 def median(values):
@@ -103,6 +123,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", default=str(Path(__file__).with_name("everyday_jobs.md")))
     parser.add_argument("--title", default="")
+    parser.add_argument("--sphere", action="store_true", help="also the 1e6-bead sphere, one run per build")
     args = parser.parse_args()
     builds = [("this", os.path.abspath(args.exe))] + ([("before", os.path.abspath(args.before))] if args.before else [])
     with tempfile.TemporaryDirectory() as work:
@@ -118,14 +139,24 @@ def main():
         for shape in ("arrowhead", "ring_1mm", "ring_2mm", "ring_3mm", "ring_4mm"):
             jobs.append((f"{shape} (`shapes/{shape}.nml`)", ROOT / "shapes" / f"{shape}.nml", "job", None))
         rows = []
+        records = {}
         for label, nml, measure, key_name in jobs:
             times = {key: [] for key, _ in builds}
             for _ in range(args.repeats):
                 for key, exe in builds:   # alternated: both builds see the same machine
-                    wall, job = run(exe, nml, work)
+                    wall, job, records[key] = run(exe, nml, work)
                     times[key].append(wall if measure == "wall" else job)
-            rows.append((label, measure, {key: median(v) for key, v in times.items()}, key_name))
-            print(label, rows[-1][2], flush=True)
+            agree = agreement(records["this"], records["before"]) if args.before else float("nan")
+            rows.append((label, measure, {key: median(v) for key, v in times.items()}, key_name, agree))
+            print(label, rows[-1][2], agree, flush=True)
+        sphere = {}
+        if args.sphere:
+            nml = work / "sphere.nml"
+            nml.write_text("&run output = 'sphere.h5' /\n&shape name = 'sphere', radius = 62.1 /\n&hydrodynamics /\n")
+            for key, exe in builds:
+                wall, job, record = run(exe, nml, work)
+                sphere[key] = (job, record)
+                print("sphere", key, job, record["memory"], flush=True)
         dense = {}
         for name in ("random_1000", "jittered_2000"):
             points = np.loadtxt(work / f"{name}.txt")
@@ -136,22 +167,38 @@ def main():
                 seconds.append(time.perf_counter() - start)
             dense[name] = median(seconds)
             print(name, "dense RPY", dense[name], flush=True)
-    header = "| job | measured | this build (s) |" + (" before (s) | before / this |" if args.before else "")
-    rule = "|---|---|---|" + ("---|---|" if args.before else "")
+    header = "| job | measured | this build (s) |" + (" before (s) | before / this | friction difference / allowed |"
+                                                       if args.before else "")
+    rule = "|---|---|---|" + ("---|---|---|" if args.before else "")
     lines = [f"# Everyday jobs{': ' + args.title if args.title else ''}", "",
              f"Written by `bench/everyday_jobs/everyday_jobs.py`: {RANKS} ranks, medians of {args.repeats} runs"
              + (", the two builds alternated" if args.before else "") + "; `job` is the friction job's own time "
              "(phase `total` in the result file), `wall` the whole process from `mpiexec` to exit.", "",
              header, rule]
-    for label, measure, t, _ in rows:
+    for label, measure, t, _, agree in rows:
         line = f"| {label} | {measure} | {t['this']:.2f} |"
         if args.before:
-            line += f" {t['before']:.2f} | {t['before'] / t['this']:.2f} |"
+            line += f" {t['before']:.2f} | {t['before'] / t['this']:.2f} | {agree:.2f} |"
         lines.append(line)
+    if args.before:
+        lines += ["", "Friction difference / allowed: the largest entry of |friction (this) - friction (before)| "
+                  "over the sum of the two runs' solver bounds (tests/e2e/solver_promise.py), last run of each "
+                  "row; at most 1 means the builds agree within what the solver promises."]
+    if sphere:
+        lines += ["", "The filled lattice sphere of radius 62.1 (about 1e6 beads), one run per build:", "",
+                  "| build | friction job (s) | peak memory per rank (GiB) | mu11 | its error bar |", "|---|---|---|---|---|"]
+        for key, (job, record) in sphere.items():
+            error = record["error"][0] if record["error"] is not None else float("nan")
+            lines.append(f"| {key} | {job:.1f} | {record['memory']:.2f} | {record['coefficients'][0]:.5f} | "
+                         f"{error:.5f} |")
+        if "before" in sphere:
+            lines.append("")
+            lines.append(f"Ratio before / this: {sphere['before'][0] / sphere['this'][0]:.2f}; friction difference / "
+                         f"allowed {agreement(sphere['this'][1], sphere['before'][1]):.2f}.")
     lines += ["", "The dense RPY code beside them (numpy, one process, median of the same repeats): "
               + ", ".join(f"{name.replace('_', ' ')} beads {seconds:.2f} s" for name, seconds in dense.items())
               + ". beadmob's whole process against it: "
-              + ", ".join(f"{name.replace('_', ' ')} {t['this'] / dense[name]:.2f}x" for _, _, t, name in rows if name)
+              + ", ".join(f"{name.replace('_', ' ')} {t['this'] / dense[name]:.2f}x" for _, _, t, name, _ in rows if name)
               + " (above 1: beadmob slower)."]
     Path(args.out).write_text("\n".join(lines) + "\n")
 
