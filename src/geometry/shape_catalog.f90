@@ -15,12 +15,13 @@ module beadmob_shape_catalog
                                    build_spheroid, build_box, build_torus
   use beadmob_text_bead_file, only: read_text_bead_file
   use beadmob_hdf5_bead_file, only: read_hdf5_bead_file, is_hdf5_file
+  use beadmob_triangle_mesh, only: triangle_mesh_t, read_triangle_mesh, check_closed_mesh, fill_mesh_on_lattice
   implicit none
   private
   public :: build_bead_model, known_shape_names
 
   character(len=*), parameter :: known_shape_names = 'cone, arrowhead, crescent_moon, ring_1mm, ring_2mm, ' // &
-    'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, torus, bead_file'
+    'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, torus, bead_file, mesh'
 
   !> One real parameter of the &shape group, by name, for the "given but not taken" check.
   type :: named_value_t
@@ -55,6 +56,8 @@ contains
       call build_simple_shape(shape_config, model, err)
     case ('bead_file')
       call read_bead_file(ctx, shape_config, model, err)
+    case ('mesh')
+      call fill_mesh_file(ctx, shape_config, model, err)
     case default
       call raise(err, "unknown shape name '" // name // "' (known: " // known_shape_names // ')')
     end select
@@ -230,6 +233,44 @@ contains
     if (n_beads > 0) call MPI_Bcast(model%centres, 3 * n_beads, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
   end subroutine read_bead_file
 
+  !> A triangle mesh (STL or OBJ) filled on the bead lattice at d = bead_diameter (mesh units):
+  !> read, checked and filled by rank 0 (triangle_mesh.f90), the beads broadcast.
+  subroutine fill_mesh_file(ctx, c, model, err)
+    type(run_context_t), intent(in) :: ctx
+    type(shape_config_t), intent(in) :: c
+    type(bead_model_t), intent(inout) :: model
+    type(error_t), intent(inout) :: err
+    type(triangle_mesh_t) :: mesh
+    integer :: sizes(2), ierr   ! beads, triangles
+
+    call only_given(c, [character(len=32) :: 'file', 'bead_diameter'], err)
+    if (len_trim(c%file) == 0) call raise(err, "&shape: shape 'mesh' needs file = 'path' (.stl or .obj)")
+    call require(c, 'bead_diameter (the bead diameter in the mesh''s length unit)', c%bead_diameter, err)
+    if (err%failed) return
+    if (.not. (c%bead_diameter > 0.0_dp .and. c%bead_diameter < huge(1.0_dp))) then
+      call raise(err, '&shape: bead_diameter must be positive and finite, got ' // str(c%bead_diameter))
+      return
+    end if
+    model%source = trim(c%file)
+    call add_parameter(model, 'bead_diameter', c%bead_diameter)
+    if (ctx%rank == 0) then
+      call read_triangle_mesh(trim(c%file), mesh, err)
+      if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
+      if (.not. err%failed) call fill_mesh_on_lattice(mesh, 1.0_dp / c%bead_diameter, trim(c%file), model%centres, err)
+      if (.not. err%failed) then
+        if (size(model%centres, 2) == 0) call raise(err, "mesh file '" // trim(c%file) // &
+          "': no lattice node inside at bead_diameter = " // str(c%bead_diameter) // ' (a finer resolution is needed)')
+        sizes = [size(model%centres, 2), size(mesh%triangles, 2)]
+      end if
+    end if
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call MPI_Bcast(sizes, 2, MPI_INTEGER, 0, ctx%comm, ierr)
+    call add_parameter(model, 'triangles', real(sizes(2), dp))
+    if (ctx%rank /= 0) allocate (model%centres(3, sizes(1)))
+    call MPI_Bcast(model%centres, 3 * sizes(1), MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+  end subroutine fill_mesh_file
+
   elemental real(dp) function pick(given, default)
     real(dp), intent(in) :: given, default
     pick = merge(given, default, is_set(given))
@@ -248,7 +289,7 @@ contains
     type(shape_config_t), intent(in) :: c
     character(len=*), intent(in) :: allowed(:)
     type(error_t), intent(inout) :: err
-    type(named_value_t) :: given(20)
+    type(named_value_t) :: given(21)
     integer :: k
     given = [named_value_t('base_diameter', is_set(c%base_diameter)), named_value_t('height', is_set(c%height)), &
              named_value_t('length', is_set(c%length)), named_value_t('middle_height', is_set(c%middle_height)), &
@@ -261,7 +302,8 @@ contains
              named_value_t('major_radius', is_set(c%major_radius)), &
              named_value_t('minor_radius', is_set(c%minor_radius)), &
              named_value_t('semi_axes', any(is_set(c%semi_axes))), named_value_t('n_beads', is_set(c%n_beads)), &
-             named_value_t('box_beads', any(is_set(c%box_beads))), named_value_t('file', len_trim(c%file) > 0)]
+             named_value_t('box_beads', any(is_set(c%box_beads))), named_value_t('file', len_trim(c%file) > 0), &
+             named_value_t('bead_diameter', is_set(c%bead_diameter))]
     do k = 1, size(given)
       if (given(k)%given .and. .not. any(allowed == given(k)%name)) then
         call raise(err, "&shape: parameter '" // trim(given(k)%name) // "' is not taken by shape '" // &

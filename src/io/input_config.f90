@@ -34,6 +34,8 @@ module beadmob_input_config
     real(dp) :: separation = unset_real, radius = unset_real
     real(dp) :: major_radius = unset_real, minor_radius = unset_real
     real(dp) :: semi_axes(3) = unset_real
+    !> Mesh files: the bead diameter d in the mesh's own length unit (the resolution).
+    real(dp) :: bead_diameter = unset_real
     integer :: n_beads = unset_int
     integer :: box_beads(3) = unset_int
   end type shape_config_t
@@ -347,12 +349,12 @@ contains
     character(len=256) :: dataset
     real(dp) :: reference_length, base_diameter, height, length, middle_height, width, semi_major, semi_minor, &
                 pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, radius, &
-                major_radius, minor_radius, semi_axes(3)
+                major_radius, minor_radius, semi_axes(3), bead_diameter
     integer :: n_beads, box_beads(3), status
     character(len=512) :: message
     namelist /shape/ name, file, dataset, reference_length, base_diameter, height, length, middle_height, width, &
       semi_major, semi_minor, pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, &
-      radius, major_radius, minor_radius, semi_axes, n_beads, box_beads
+      radius, major_radius, minor_radius, semi_axes, n_beads, box_beads, bead_diameter
 
     associate (c => shape_config)
       name = c%name; file = c%file; dataset = c%dataset; reference_length = c%reference_length
@@ -361,7 +363,7 @@ contains
       gap_half_angle = c%gap_half_angle; gap_arc_length = c%gap_arc_length; scale = c%scale
       section_ratio = c%section_ratio; separation = c%separation; radius = c%radius
       major_radius = c%major_radius; minor_radius = c%minor_radius; semi_axes = c%semi_axes
-      n_beads = c%n_beads; box_beads = c%box_beads
+      n_beads = c%n_beads; box_beads = c%box_beads; bead_diameter = c%bead_diameter
     end associate
     ! gfortran reports success when the group is absent from an internal file: look for it.
     found = has_group(lines, 'shape')
@@ -376,7 +378,7 @@ contains
       semi_major=semi_major, semi_minor=semi_minor, pipe_radius=pipe_radius, gap_half_angle=gap_half_angle, &
       gap_arc_length=gap_arc_length, scale=scale, section_ratio=section_ratio, separation=separation, &
       radius=radius, major_radius=major_radius, minor_radius=minor_radius, semi_axes=semi_axes, &
-      n_beads=n_beads, box_beads=box_beads)
+      n_beads=n_beads, box_beads=box_beads, bead_diameter=bead_diameter)
   end subroutine read_shape_group
 
   !> The configuration actually used, written back as namelists (defaults made visible).
@@ -417,6 +419,7 @@ contains
       call add_real('radius', c%radius)
       call add_real('major_radius', c%major_radius)
       call add_real('minor_radius', c%minor_radius)
+      call add_real('bead_diameter', c%bead_diameter)
       if (all(is_set(c%semi_axes))) then
         write (line, '(a, 3(es23.16, :, ", "))') '  semi_axes = ', c%semi_axes
         text = text // trim(line) // new_line('a')
