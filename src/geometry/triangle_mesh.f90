@@ -333,18 +333,21 @@ contains
       end do
     end do
     call sort_keys(edges, owner)
+    ! First the edges used twice in one direction (a flipped triangle also leaves edges without
+    ! their reverse: the more telling message first), then the edges without a reverse.
+    do e = 2, size(edges, kind=i8)
+      if (edges(e) /= edges(e - 1)) cycle
+      a = int(edges(e) / n) + 1
+      b = int(mod(edges(e), n)) + 1
+      call raise(err, "mesh file '" // path // "': the edge from " // point_text(mesh%vertices(:, a)) // &
+                 ' to ' // point_text(mesh%vertices(:, b)) // ' is used in the same direction by triangles ' // &
+                 str(owner(e - 1)) // ' and ' // str(owner(e)) // &
+                 ' (more than two triangles at an edge, or triangles oriented inconsistently)')
+      return
+    end do
     do e = 1, size(edges, kind=i8)
       a = int(edges(e) / n) + 1
       b = int(mod(edges(e), n)) + 1
-      if (e > 1) then
-        if (edges(e) == edges(e - 1)) then
-          call raise(err, "mesh file '" // path // "': the edge from " // point_text(mesh%vertices(:, a)) // &
-                     ' to ' // point_text(mesh%vertices(:, b)) // ' is used in the same direction by triangles ' // &
-                     str(owner(e - 1)) // ' and ' // str(owner(e)) // &
-                     ' (more than two triangles at an edge, or triangles oriented inconsistently)')
-          return
-        end if
-      end if
       reverse = (b - 1) * n + (a - 1)
       found = findloc_sorted(edges, reverse)
       if (found == 0) then
