@@ -62,7 +62,11 @@ contains
       call raise(err, "unknown shape name '" // name // "' (known: " // known_shape_names // ')')
     end select
     if (err%failed) return
-    if (is_set(shape_config%reference_length)) model%reference_length = shape_config%reference_length
+    if (is_set(shape_config%reference_length)) then
+      ! in the unit of the shape's lengths: d, or the unit bead_diameter is given in
+      model%reference_length = shape_config%reference_length
+      if (is_set(shape_config%bead_diameter)) model%reference_length = model%reference_length / shape_config%bead_diameter
+    end if
   end subroutine build_bead_model
 
   !> The paper's shapes (settlers paper, appendix "Bead model ..."): every parameter defaults
@@ -150,11 +154,25 @@ contains
     if (.not. modified) model%reference_length = preset%reference_length
   end subroutine build_paper_shape
 
+  !> sphere, spheroid and torus take their lengths in any unit with `bead_diameter` (d in that
+  !> unit, the resolution): the lattice body is the one of lengths / bead_diameter, and the bead
+  !> centres fill it (docs/input.md, "Physical units"). The result file records the lengths as
+  !> given and bead_diameter.
   subroutine build_simple_shape(c, model, err)
     type(shape_config_t), intent(in) :: c
     type(bead_model_t), intent(inout) :: model
     type(error_t), intent(inout) :: err
     integer :: k
+    real(dp) :: per_d   ! lattice units (d) per given length unit
+    per_d = 1.0_dp
+    if (is_set(c%bead_diameter)) then
+      if (.not. (c%bead_diameter > 0.0_dp .and. c%bead_diameter < huge(1.0_dp))) then
+        call raise(err, '&shape: bead_diameter must be positive and finite, got ' // str(c%bead_diameter))
+        return
+      end if
+      per_d = 1.0_dp / c%bead_diameter
+      call add_parameter(model, 'bead_diameter', c%bead_diameter)
+    end if
     select case (trim(c%name))
     case ('single_bead')
       call only_given(c, [character(len=32) :: ''], err)
@@ -172,19 +190,19 @@ contains
       call add_parameter(model, 'n_beads', real(c%n_beads, dp))
       call build_chain(c%n_beads, model%centres, err)
     case ('sphere')
-      call only_given(c, [character(len=32) :: 'radius'], err)
+      call only_given(c, [character(len=32) :: 'radius', 'bead_diameter'], err)
       call require(c, 'radius', c%radius, err)
       if (err%failed) return
       call add_parameter(model, 'radius', c%radius)
-      call build_filled_sphere(c%radius, model%centres, err)
+      call build_filled_sphere(c%radius * per_d, model%centres, err)
     case ('spheroid')
-      call only_given(c, [character(len=32) :: 'semi_axes'], err)
+      call only_given(c, [character(len=32) :: 'semi_axes', 'bead_diameter'], err)
       if (.not. all(is_set(c%semi_axes))) call raise(err, "&shape: shape 'spheroid' needs semi_axes = a, b, c")
       if (err%failed) return
       do k = 1, 3
         call add_parameter(model, 'semi_axis_' // achar(iachar('x') + k - 1), c%semi_axes(k))
       end do
-      call build_spheroid(c%semi_axes, model%centres, err)
+      call build_spheroid(c%semi_axes * per_d, model%centres, err)
     case ('box')
       call only_given(c, [character(len=32) :: 'box_beads'], err)
       if (.not. all(is_set(c%box_beads))) call raise(err, "&shape: shape 'box' needs box_beads = nx, ny, nz")
@@ -194,13 +212,13 @@ contains
       end do
       call build_box(c%box_beads(1), c%box_beads(2), c%box_beads(3), model%centres, err)
     case ('torus')
-      call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius'], err)
+      call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius', 'bead_diameter'], err)
       call require(c, 'major_radius', c%major_radius, err)
       call require(c, 'minor_radius', c%minor_radius, err)
       if (err%failed) return
       call add_parameter(model, 'major_radius', c%major_radius)
       call add_parameter(model, 'minor_radius', c%minor_radius)
-      call build_torus(c%major_radius, c%minor_radius, model%centres, err)
+      call build_torus(c%major_radius * per_d, c%minor_radius * per_d, model%centres, err)
     end select
   end subroutine build_simple_shape
 

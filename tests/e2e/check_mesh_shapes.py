@@ -11,7 +11,9 @@ src/geometry/triangle_mesh.f90).
    with one triangle removed (not closed: an edge with no triangle on its other side), one
    triangle flipped (an edge used twice in the same direction), a degenerate triangle, an
    unknown extension, a missing file, a bad OBJ index and a bad ascii STL vertex line (with the
-   line number)."""
+   line number).
+3. The analytic shapes in their own length unit (`bead_diameter` given) are the lattice shapes of
+   lengths / bead_diameter, bead for bead."""
 import os
 import subprocess
 import sys
@@ -158,6 +160,18 @@ def main(beadmob, mpiexec, ranks, workdir):
                     failures.append(f"{label}: no beads")
                 else:
                     print(f"{label}: {len(from_mesh)} beads, {len(differing)} grazing nodes differ")
+
+    # Analytic shapes in their own units: lengths / bead_diameter is the lattice body.
+    for physical, lattice in [("name = 'spheroid', semi_axes = 3.65, 2.6, 1.8, bead_diameter = 0.5",
+                               "name = 'spheroid', semi_axes = 7.3, 5.2, 3.6"),
+                              ("name = 'sphere', radius = 0.61, bead_diameter = 0.05", "name = 'sphere', radius = 12.2"),
+                              ("name = 'torus', major_radius = 6.2, minor_radius = 2.3, bead_diameter = 2",
+                               "name = 'torus', major_radius = 3.1, minor_radius = 1.15")]:
+        given, scaled = (node_set(run(beadmob, mpiexec, ranks, workdir, group)) for group in (physical, lattice))
+        if given != scaled or not given:
+            failures.append(f"&shape {physical}: {len(given ^ scaled)} beads differ from &shape {lattice}")
+        else:
+            print(f"{physical}: the {len(given)} beads of {lattice}")
 
     sphere = ellipsoid_mesh(4.2, 4.2, 4.2, n=24)
     broken = {
