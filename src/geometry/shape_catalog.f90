@@ -70,48 +70,58 @@ contains
   end subroutine build_bead_model
 
   !> The paper's shapes (settlers paper, appendix "Bead model ..."): every parameter defaults
-  !> to the paper's value; L is the paper's L/d unless a parameter was changed.
+  !> to the paper's value; L is the paper's L/d unless a parameter was changed. With
+  !> bead_diameter, every length is given in its unit (size_of; length_unit).
   subroutine build_paper_shape(c, model, err)
     type(shape_config_t), intent(in) :: c
     type(bead_model_t), intent(inout) :: model
     type(error_t), intent(inout) :: err
     type(paper_shape_t) :: preset
     logical :: modified
-    real(dp) :: gap_half_angle
+    real(dp) :: gap_half_angle, per_d
 
     preset = paper_shape_preset(trim(c%name))
     gap_half_angle = preset%gap_half_angle
+    ! In physical units (bead_diameter given) every length of the shape is given in that unit:
+    ! the paper's defaults are in d and are not mixed in.
+    call length_unit(c, model, per_d, err)
+    if (err%failed) return
     select case (trim(c%name))
     case ('cone')
-      call only_given(c, [character(len=32) :: 'base_diameter', 'height'], err)
+      call only_given(c, [character(len=32) :: 'base_diameter', 'height', 'bead_diameter'], err)
       if (err%failed) return
-      associate (base_diameter => pick(c%base_diameter, preset%base_diameter), height => pick(c%height, preset%height))
-        call add_parameter(model, 'base_diameter', base_diameter)
-        call add_parameter(model, 'height', height)
+      associate (base_diameter => size_of('base_diameter', c%base_diameter, preset%base_diameter), &
+                 height => size_of('height', c%height, preset%height))
+        if (err%failed) return
+        call add_parameter(model, 'base_diameter', pick(c%base_diameter, preset%base_diameter))
+        call add_parameter(model, 'height', pick(c%height, preset%height))
         call build_cone(base_diameter, height, model%centres, err)
       end associate
     case ('arrowhead')
-      call only_given(c, [character(len=32) :: 'length', 'height', 'middle_height', 'width'], err)
+      call only_given(c, [character(len=32) :: 'length', 'height', 'middle_height', 'width', 'bead_diameter'], err)
       if (err%failed) return
-      associate (length => pick(c%length, preset%length), height => pick(c%height, preset%height), &
-                 middle_height => pick(c%middle_height, preset%middle_height), width => pick(c%width, preset%width))
-        call add_parameter(model, 'length', length)
-        call add_parameter(model, 'height', height)
-        call add_parameter(model, 'middle_height', middle_height)
-        call add_parameter(model, 'width', width)
+      associate (length => size_of('length', c%length, preset%length), height => size_of('height', c%height, preset%height), &
+                 middle_height => size_of('middle_height', c%middle_height, preset%middle_height), &
+                 width => size_of('width', c%width, preset%width))
+        if (err%failed) return
+        call add_parameter(model, 'length', pick(c%length, preset%length))
+        call add_parameter(model, 'height', pick(c%height, preset%height))
+        call add_parameter(model, 'middle_height', pick(c%middle_height, preset%middle_height))
+        call add_parameter(model, 'width', pick(c%width, preset%width))
         call build_arrowhead(length, height, middle_height, width, model%centres, err)
       end associate
     case ('crescent_moon')
-      call only_given(c, [character(len=32) :: 'scale', 'section_ratio'], err)
+      call only_given(c, [character(len=32) :: 'scale', 'section_ratio', 'bead_diameter'], err)
       if (err%failed) return
-      associate (scale => pick(c%scale, preset%scale), section_ratio => pick(c%section_ratio, preset%section_ratio))
-        call add_parameter(model, 'scale', scale)
+      associate (scale => size_of('scale', c%scale, preset%scale), section_ratio => pick(c%section_ratio, preset%section_ratio))
+        if (err%failed) return
+        call add_parameter(model, 'scale', pick(c%scale, preset%scale))
         call add_parameter(model, 'section_ratio', section_ratio)
         call build_crescent_moon(scale, section_ratio, model%centres, err)
       end associate
     case default   ! open rings: the four presets and the generic 'open_ring'
       call only_given(c, [character(len=32) :: 'semi_major', 'semi_minor', 'pipe_radius', 'gap_half_angle', &
-                                               'gap_arc_length'], err)
+                                               'gap_arc_length', 'bead_diameter'], err)
       if (err%failed) return
       if (trim(c%name) == 'open_ring') then
         call require(c, 'semi_major', c%semi_major, err)
@@ -123,20 +133,22 @@ contains
       if (is_set(c%gap_half_angle) .and. is_set(c%gap_arc_length)) &
         call raise(err, '&shape: give gap_half_angle or gap_arc_length, not both')
       if (err%failed) return
-      associate (semi_major => pick(c%semi_major, preset%semi_major), semi_minor => pick(c%semi_minor, preset%semi_minor), &
-                 pipe_radius => pick(c%pipe_radius, preset%pipe_radius))
+      associate (semi_major => size_of('semi_major', c%semi_major, preset%semi_major), &
+                 semi_minor => size_of('semi_minor', c%semi_minor, preset%semi_minor), &
+                 pipe_radius => size_of('pipe_radius', c%pipe_radius, preset%pipe_radius))
+        if (err%failed) return
         gap_half_angle = pick(c%gap_half_angle, preset%gap_half_angle)
         if (is_set(c%gap_arc_length)) then
           if (.not. (c%gap_arc_length >= 0.0_dp)) then
             call raise(err, '&shape gap_arc_length must be >= 0, got ' // str(c%gap_arc_length))
             return
           end if
-          gap_half_angle = gap_half_angle_from_arc(semi_major, semi_minor, c%gap_arc_length)
+          gap_half_angle = gap_half_angle_from_arc(semi_major, semi_minor, c%gap_arc_length * per_d)
           call add_parameter(model, 'gap_arc_length', c%gap_arc_length)
         end if
-        call add_parameter(model, 'semi_major', semi_major)
-        call add_parameter(model, 'semi_minor', semi_minor)
-        call add_parameter(model, 'pipe_radius', pipe_radius)
+        call add_parameter(model, 'semi_major', pick(c%semi_major, preset%semi_major))
+        call add_parameter(model, 'semi_minor', pick(c%semi_minor, preset%semi_minor))
+        call add_parameter(model, 'pipe_radius', pick(c%pipe_radius, preset%pipe_radius))
         call add_parameter(model, 'gap_half_angle', gap_half_angle)
         call build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle, model%centres, err)
       end associate
@@ -151,28 +163,38 @@ contains
                     pick(c%pipe_radius, preset%pipe_radius) /= preset%pipe_radius, &
                     gap_half_angle /= preset%gap_half_angle, pick(c%scale, preset%scale) /= preset%scale, &
                     pick(c%section_ratio, preset%section_ratio) /= preset%section_ratio]) .or. trim(c%name) == 'open_ring'
-    if (.not. modified) model%reference_length = preset%reference_length
+    if (.not. modified .and. .not. is_set(c%bead_diameter)) model%reference_length = preset%reference_length
+
+  contains
+
+    !> A length of the shape in d: the given value (times per_d), else the paper's; in physical
+    !> units the value must be given.
+    real(dp) function size_of(name, given, default)
+      character(len=*), intent(in) :: name
+      real(dp), intent(in) :: given, default
+      size_of = pick(given, default)
+      if (.not. is_set(c%bead_diameter)) return
+      if (.not. is_set(given)) then
+        call raise(err, "&shape: with bead_diameter, shape '" // trim(c%name) // "' needs " // name // &
+                   ' in the same unit (the paper''s values are in d)')
+        return
+      end if
+      size_of = given * per_d
+    end function size_of
   end subroutine build_paper_shape
 
   !> sphere, spheroid and torus take their lengths in any unit with `bead_diameter` (d in that
-  !> unit, the resolution): the lattice body is the one of lengths / bead_diameter, and the bead
-  !> centres fill it (docs/input.md, "Physical units"). The result file records the lengths as
-  !> given and bead_diameter.
+  !> unit, the resolution; length_unit): the lattice body is the one of lengths / bead_diameter,
+  !> and the bead centres fill it (docs/input.md, "Physical units"). The result file records the
+  !> lengths as given and bead_diameter.
   subroutine build_simple_shape(c, model, err)
     type(shape_config_t), intent(in) :: c
     type(bead_model_t), intent(inout) :: model
     type(error_t), intent(inout) :: err
     integer :: k
     real(dp) :: per_d   ! lattice units (d) per given length unit
-    per_d = 1.0_dp
-    if (is_set(c%bead_diameter)) then
-      if (.not. (c%bead_diameter > 0.0_dp .and. c%bead_diameter < huge(1.0_dp))) then
-        call raise(err, '&shape: bead_diameter must be positive and finite, got ' // str(c%bead_diameter))
-        return
-      end if
-      per_d = 1.0_dp / c%bead_diameter
-      call add_parameter(model, 'bead_diameter', c%bead_diameter)
-    end if
+    call length_unit(c, model, per_d, err)
+    if (err%failed) return
     select case (trim(c%name))
     case ('single_bead')
       call only_given(c, [character(len=32) :: ''], err)
@@ -260,21 +282,19 @@ contains
     type(error_t), intent(inout) :: err
     type(triangle_mesh_t) :: mesh
     integer :: sizes(2), ierr   ! beads, triangles
+    real(dp) :: per_d
 
     call only_given(c, [character(len=32) :: 'file', 'bead_diameter'], err)
     if (len_trim(c%file) == 0) call raise(err, "&shape: shape 'mesh' needs file = 'path' (.stl or .obj)")
     call require(c, 'bead_diameter (the bead diameter in the mesh''s length unit)', c%bead_diameter, err)
     if (err%failed) return
-    if (.not. (c%bead_diameter > 0.0_dp .and. c%bead_diameter < huge(1.0_dp))) then
-      call raise(err, '&shape: bead_diameter must be positive and finite, got ' // str(c%bead_diameter))
-      return
-    end if
+    call length_unit(c, model, per_d, err)
+    if (err%failed) return
     model%source = trim(c%file)
-    call add_parameter(model, 'bead_diameter', c%bead_diameter)
     if (ctx%rank == 0) then
       call read_triangle_mesh(trim(c%file), mesh, err)
       if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
-      if (.not. err%failed) call fill_mesh_on_lattice(mesh, 1.0_dp / c%bead_diameter, trim(c%file), model%centres, err)
+      if (.not. err%failed) call fill_mesh_on_lattice(mesh, per_d, trim(c%file), model%centres, err)
       if (.not. err%failed) then
         if (size(model%centres, 2) == 0) call raise(err, "mesh file '" // trim(c%file) // &
           "': no lattice node inside at bead_diameter = " // str(c%bead_diameter) // ' (a finer resolution is needed)')
@@ -288,6 +308,23 @@ contains
     if (ctx%rank /= 0) allocate (model%centres(3, sizes(1)))
     call MPI_Bcast(model%centres, 3 * sizes(1), MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
   end subroutine fill_mesh_file
+
+  !> per_d: lattice units (d) per unit of the shape's lengths: 1, or 1 / bead_diameter when it
+  !> is given (then checked and recorded with the shape's parameters).
+  subroutine length_unit(c, model, per_d, err)
+    type(shape_config_t), intent(in) :: c
+    type(bead_model_t), intent(inout) :: model
+    real(dp), intent(out) :: per_d
+    type(error_t), intent(inout) :: err
+    per_d = 1.0_dp
+    if (.not. is_set(c%bead_diameter)) return
+    if (.not. (c%bead_diameter > 0.0_dp .and. c%bead_diameter < huge(1.0_dp))) then
+      call raise(err, '&shape: bead_diameter must be positive and finite, got ' // str(c%bead_diameter))
+      return
+    end if
+    per_d = 1.0_dp / c%bead_diameter
+    call add_parameter(model, 'bead_diameter', c%bead_diameter)
+  end subroutine length_unit
 
   elemental real(dp) function pick(given, default)
     real(dp), intent(in) :: given, default

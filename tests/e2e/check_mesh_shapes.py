@@ -12,8 +12,10 @@ src/geometry/triangle_mesh.f90).
    triangle flipped (an edge used twice in the same direction), a degenerate triangle, an
    unknown extension, a missing file, a bad OBJ index and a bad ascii STL vertex line (with the
    line number).
-3. The analytic shapes in their own length unit (`bead_diameter` given) are the lattice shapes of
-   lengths / bead_diameter, bead for bead."""
+3. The analytic shapes in their own length unit (`bead_diameter` given: sphere, spheroid, torus
+   and the paper shapes cone, arrowhead, open ring) are the lattice shapes of lengths /
+   bead_diameter, bead for bead; a paper shape in physical units without all its lengths, a box
+   (counted in beads) with bead_diameter and a negative bead_diameter are refused."""
 import os
 import subprocess
 import sys
@@ -166,7 +168,15 @@ def main(beadmob, mpiexec, ranks, workdir):
                                "name = 'spheroid', semi_axes = 7.3, 5.2, 3.6"),
                               ("name = 'sphere', radius = 0.61, bead_diameter = 0.05", "name = 'sphere', radius = 12.2"),
                               ("name = 'torus', major_radius = 6.2, minor_radius = 2.3, bead_diameter = 2",
-                               "name = 'torus', major_radius = 3.1, minor_radius = 1.15")]:
+                               "name = 'torus', major_radius = 3.1, minor_radius = 1.15"),
+                              ("name = 'cone', base_diameter = 1.0, height = 2.35, bead_diameter = 0.05", "name = 'cone'"),
+                              ("name = 'arrowhead', length = 3.0, height = 1.5, middle_height = 0.5, width = 0.4, "
+                               "bead_diameter = 0.1", "name = 'arrowhead', length = 30, height = 15, middle_height = 5, "
+                               "width = 4"),
+                              ("name = 'open_ring', semi_major = 1.6, semi_minor = 1.2, pipe_radius = 0.31, "
+                               "gap_half_angle = 30, bead_diameter = 0.1",
+                               "name = 'open_ring', semi_major = 16, semi_minor = 12, pipe_radius = 3.1, "
+                               "gap_half_angle = 30")]:
         given, scaled = (node_set(run(beadmob, mpiexec, ranks, workdir, group)) for group in (physical, lattice))
         if given != scaled or not given:
             failures.append(f"&shape {physical}: {len(given ^ scaled)} beads differ from &shape {lattice}")
@@ -185,6 +195,14 @@ def main(beadmob, mpiexec, ranks, workdir):
     (workdir / "bad_vertex.stl").write_text("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 zero\n")
     (workdir / "mesh.ply").write_text("ply\n")
     cases = [(name, text) for name, (_, text) in broken.items()]
+    # physical units without every length of a paper shape, or for a shape counted in beads
+    for group, expected in [("name = 'cone', base_diameter = 1.0, bead_diameter = 0.05", "needs height in the same unit"),
+                            ("name = 'box', box_beads = 2, 2, 2, bead_diameter = 0.05", "'bead_diameter' is not taken"),
+                            ("name = 'sphere', radius = 1, bead_diameter = -1", "bead_diameter must be positive")]:
+        done = run(beadmob, mpiexec, ranks, workdir, group, expect_ok=False)
+        if done.returncode == 0 or expected not in done.stderr:
+            failures.append(f"&shape {group}: expected a refusal with '{expected}', got exit {done.returncode}:\n"
+                            f"{done.stderr}")
     cases += [("bad_index.obj", "line 4"), ("bad_vertex.stl", "line 4"), ("mesh.ply", "unknown format"),
               ("missing.stl", "does not exist")]
     for file_name, expected in cases:
