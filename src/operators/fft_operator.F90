@@ -149,11 +149,10 @@ module beadmob_fft_operator
     integer :: box(3) = 1                   ! padded size of the fast, middle and slow FFT dimension
     !> FFTW_MEASURE plans (timed trial transforms while planning, ~20 % faster products at a
     !> set-up cost of about ten products, but the chosen algorithm, hence the rounding, may vary
-    !> from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit).
+    !> from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit). Measured plans are
+    !> remembered between runs in FFTW wisdom next to the table cache (<cache file>.fftw_wisdom;
+    !> none without a cache): a later run on the same box plans at once (plans_from_wisdom).
     logical :: measure_plans = .true.
-    !> Measured plans are remembered between runs in FFTW wisdom next to the table cache
-    !> (<cache file>.fftw_wisdom; none without a cache): a later run on the same box plans at once
-    !> (plans_from_wisdom of the base type).
     integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
     integer(C_INTPTR_T) :: slab_start = 0
     integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
