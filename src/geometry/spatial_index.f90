@@ -6,7 +6,7 @@ module beadmob_spatial_index
   use beadmob_errors, only: error_t, raise
   implicit none
   private
-  public :: spatial_index_t, build_spatial_index, beads_within, sort_keys
+  public :: spatial_index_t, build_spatial_index, beads_within, sort_keys, lower_bound
 
   !> Widest model span (in d) the int64 cell key can hold without overflow.
   real(dp), parameter :: max_span = 2.0e6_dp

@@ -16,7 +16,7 @@ module beadmob_triangle_mesh
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_spatial_index, only: sort_keys
+  use beadmob_spatial_index, only: sort_keys, lower_bound
   use beadmob_lattice_fill, only: reserve_sites
   implicit none
   private
@@ -115,19 +115,12 @@ contains
     character(len=16) :: keyword
     real(dp), allocatable :: buffer(:, :)
     integer :: unit, stat, n, line_number
-    open (newunit=unit, file=path, status='old', action='read', iostat=stat)
-    if (stat /= 0) then
-      call raise(err, "mesh file '" // path // "' cannot be opened")
-      return
-    end if
+    call open_text(path, unit, err)
+    if (err%failed) return
     allocate (buffer(3, 3 * 1024))
     n = 0
     line_number = 0
-    do
-      read (unit, '(a)', iostat=stat) line
-      if (stat /= 0) exit
-      line_number = line_number + 1
-      line = adjustl(line)
+    do while (next_line(unit, line, line_number))
       if (lower_case(line(1:7)) /= 'vertex ') cycle
       if (n == size(buffer, 2)) buffer = reshape(buffer, [3, 2 * n], pad=[0.0_dp])
       n = n + 1
@@ -159,20 +152,13 @@ contains
     integer, allocatable :: triangles(:, :), face(:)
     integer :: unit, stat, n_vertices, n_triangles, line_number, n_tokens, k, slash, value
     real(dp), allocatable :: corners(:, :)
-    open (newunit=unit, file=path, status='old', action='read', iostat=stat)
-    if (stat /= 0) then
-      call raise(err, "mesh file '" // path // "' cannot be opened")
-      return
-    end if
+    call open_text(path, unit, err)
+    if (err%failed) return
     allocate (vertices(3, 1024), triangles(3, 1024))
     n_vertices = 0
     n_triangles = 0
     line_number = 0
-    do
-      read (unit, '(a)', iostat=stat) line
-      if (stat /= 0) exit
-      line_number = line_number + 1
-      line = adjustl(line)
+    do while (next_line(unit, line, line_number))
       if (line(1:2) == 'v ') then
         if (n_vertices == size(vertices, 2)) vertices = reshape(vertices, [3, 2 * n_vertices], pad=[0.0_dp])
         n_vertices = n_vertices + 1
@@ -225,6 +211,29 @@ contains
       close (unit)
     end subroutine fail
   end subroutine read_obj
+
+  !> The text readers' file, open for reading (an error naming it if it cannot be).
+  subroutine open_text(path, unit, err)
+    character(len=*), intent(in) :: path
+    integer, intent(out) :: unit
+    type(error_t), intent(inout) :: err
+    integer :: stat
+    open (newunit=unit, file=path, status='old', action='read', iostat=stat)
+    if (stat /= 0) call raise(err, "mesh file '" // path // "' cannot be opened")
+  end subroutine open_text
+
+  !> The next line of `unit`, left-adjusted, and its number; .false. at the end of the file.
+  logical function next_line(unit, line, line_number)
+    integer, intent(in) :: unit
+    character(len=*), intent(out) :: line
+    integer, intent(inout) :: line_number
+    integer :: stat
+    read (unit, '(a)', iostat=stat) line
+    next_line = stat == 0
+    if (.not. next_line) return
+    line_number = line_number + 1
+    line = adjustl(line)
+  end function next_line
 
   !> Whitespace-separated tokens of `text`.
   subroutine split(text, tokens, n)
@@ -349,7 +358,11 @@ contains
       a = int(edges(e) / n) + 1
       b = int(mod(edges(e), n)) + 1
       reverse = (b - 1) * n + (a - 1)
-      found = findloc_sorted(edges, reverse)
+      found = lower_bound(edges, reverse)
+      if (found > size(edges, kind=i8)) found = 0
+      if (found > 0) then
+        if (edges(found) /= reverse) found = 0
+      end if
       if (found == 0) then
         call raise(err, "mesh file '" // path // "' is not closed: the edge from " // &
                    point_text(mesh%vertices(:, a)) // ' to ' // point_text(mesh%vertices(:, b)) // ' of triangle ' // &
@@ -358,26 +371,6 @@ contains
       end if
     end do
   end subroutine check_closed_mesh
-
-  !> Index of `key` in the sorted `keys`, 0 if absent.
-  pure integer(i8) function findloc_sorted(keys, key)
-    integer(i8), intent(in) :: keys(:), key
-    integer(i8) :: low, high, middle
-    low = 1
-    high = size(keys, kind=i8)
-    findloc_sorted = 0
-    do while (low <= high)
-      middle = (low + high) / 2
-      if (keys(middle) == key) then
-        findloc_sorted = middle
-        return
-      else if (keys(middle) < key) then
-        low = middle + 1
-      else
-        high = middle - 1
-      end if
-    end do
-  end function findloc_sorted
 
   function point_text(p) result(text)
     real(dp), intent(in) :: p(3)
@@ -437,7 +430,7 @@ contains
 
     call reserve_sites(upper - lower + 1, 'mesh', buffer, err)
     if (err%failed) return
-    allocate (crossing_z(64), crossing_sign(64), keys(64), order(64))
+    allocate (crossing_z(64), crossing_sign(64))
     count = 0
     ! Columns in y-major order; the nodes are sorted into x-fastest order at the end.
     do j = lower(2), upper(2)
@@ -487,7 +480,6 @@ contains
       end do
     end do
     ! x fastest, then y, then z
-    deallocate (keys, order)
     allocate (keys(count), order(count))
     do c = 1, count
       keys(c) = int(nint(buffer(3, c)) - lower(3), i8) * n_columns + &
