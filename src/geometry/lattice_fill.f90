@@ -8,7 +8,7 @@ module beadmob_lattice_fill
   use beadmob_resources, only: available_memory_bytes
   implicit none
   private
-  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites
+  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift
 
   !> Relative tolerance of the inside tests of the shape builders.
   real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
@@ -22,27 +22,33 @@ module beadmob_lattice_fill
 
 contains
 
-  !> Integer lattice nodes in the box lower..upper (per axis) for which `inside` is true,
-  !> in the order x fastest, then y, then z. `what` names the shape in an error.
-  subroutine lattice_nodes_inside(lower, upper, inside, what, centres, err)
+  !> The points node + offset (node an integer lattice node) for which `inside` is true, in the
+  !> order x fastest, then y, then z; the nodes range over the box lower..upper, which must
+  !> hold every integer point of the body. `offset` (each component in [0, 1), d) shifts the
+  !> lattice against the body (the continuum job's sub-lattice offsets); the inside test must
+  !> then be complete, the box only bounds it. `what` names the shape in an error.
+  subroutine lattice_nodes_inside(lower, upper, inside, what, offset, centres, err)
     integer, intent(in) :: lower(3), upper(3)
     procedure(inside_test) :: inside
     character(len=*), intent(in) :: what
+    real(dp), intent(in) :: offset(3)
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
     real(dp), allocatable :: buffer(:, :)
     real(dp) :: node(3)
-    integer :: i, j, k, count
-    call reserve_sites(upper - lower + 1, what, buffer, err)
+    integer :: i, j, k, count, first(3)
+    ! A shifted point n + offset, offset in (0, 1), covers the body's integer points from n = lower - 1.
+    first = lower - merge(1, 0, offset /= 0.0_dp)
+    call reserve_sites(upper - first + 1, what, buffer, err)
     if (err%failed) then
       allocate (centres(3, 0))
       return
     end if
     count = 0
-    do k = lower(3), upper(3)
-      do j = lower(2), upper(2)
-        do i = lower(1), upper(1)
-          node = [real(i, dp), real(j, dp), real(k, dp)]
+    do k = first(3), upper(3)
+      do j = first(2), upper(2)
+        do i = first(1), upper(1)
+          node = [real(i, dp), real(j, dp), real(k, dp)] + offset
           if (inside(node)) then
             count = count + 1
             buffer(:, count) = node
@@ -52,6 +58,14 @@ contains
     end do
     centres = buffer(:, 1:count)
   end subroutine lattice_nodes_inside
+
+  !> A builder's optional offset of the lattice against the body: as given, else none.
+  pure function lattice_shift(offset) result(shift)
+    real(dp), intent(in), optional :: offset(3)
+    real(dp) :: shift(3)
+    shift = 0.0_dp
+    if (present(offset)) shift = offset
+  end function lattice_shift
 
   !> buffer(3, n) for the n = product(sites) candidate lattice nodes of a shape builder, refused
   !> with one message (never a crash) when n exceeds the bead index range (default integers) or

@@ -14,7 +14,7 @@ module beadmob_paper_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
-  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites, lattice_shift
   implicit none
   private
   public :: build_cone, build_arrowhead, build_open_ring, build_crescent_moon
@@ -89,9 +89,10 @@ contains
   !> Both inequalities are inclusive ("including its surface"): nodes on the surface (for the
   !> paper values the 12 nodes with r = 10 at z = 0 and the apex) are kept, with an absolute
   !> tolerance boundary_tolerance * max(1, L).
-  subroutine build_cone(base_diameter, height, centres, err)
+  subroutine build_cone(base_diameter, height, centres, err, offset)
     real(dp), intent(in) :: base_diameter, height
     real(dp), allocatable, intent(out) :: centres(:, :)
+    real(dp), intent(in), optional :: offset(3)
     type(error_t), intent(inout) :: err
     real(dp) :: tol
     integer :: n_r, n_z
@@ -102,13 +103,13 @@ contains
     tol = boundary_tolerance * max(1.0_dp, base_diameter, height)
     n_r = floor(0.5_dp * base_diameter + tol)
     n_z = floor(height + tol)
-    call lattice_nodes_inside([-n_r, -n_r, 0], [n_r, n_r, n_z], inside_cone, 'cone', centres, err)
+    call lattice_nodes_inside([-n_r, -n_r, 0], [n_r, n_r, n_z], inside_cone, 'cone', lattice_shift(offset), centres, err)
   contains
     logical function inside_cone(node)
       real(dp), intent(in) :: node(3)
       real(dp) :: r_max
       r_max = (height - node(3)) * base_diameter / (2.0_dp * height)  ! R(z), appendix "Cone"
-      inside_cone = sqrt(node(1)**2 + node(2)**2) <= r_max + tol
+      inside_cone = sqrt(node(1)**2 + node(2)**2) <= r_max + tol .and. node(3) >= -tol .and. node(3) <= height + tol
     end function inside_cone
   end subroutine build_cone
 
@@ -120,13 +121,14 @@ contains
   !> 29 * 11 * 16 = 5104 (the inclusive reading gives 5137, see shapes/README.md).
   !> Nodes on the lower surface or on |x| = L/2, y = 0, y = W are kept; nodes on the upper
   !> surface are not; tolerance boundary_tolerance * max(1, L, H).
-  subroutine build_arrowhead(length, height, middle_height, width, centres, err)
+  subroutine build_arrowhead(length, height, middle_height, width, centres, err, offset)
     real(dp), intent(in) :: length, height, middle_height, width
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)   ! of the lattice against the body (lattice_nodes_inside)
     real(dp), allocatable :: buffer(:, :)
-    real(dp) :: tol, slope, z_low
-    integer :: n_x, n_y, n_z, i, j, k, count
+    real(dp) :: tol, slope, z_low, shift(3), point(3)
+    integer :: n_x, n_y, n_z, i, j, k, count, widen
 
     allocate (centres(3, 0))
     if (.not. positive_size(length, 'arrowhead: length', err)) return
@@ -143,16 +145,23 @@ contains
     n_x = floor(0.5_dp * length + tol)
     n_y = floor(width + tol)
     n_z = ceiling(height) + 1
-    call reserve_sites([2 * n_x + 1, n_y + 1, n_z + 1], 'arrowhead', buffer, err)
+    shift = lattice_shift(offset)
+    widen = merge(1, 0, any(shift /= 0.0_dp))   ! a shifted lattice: one more node below each range
+    call reserve_sites([2 * n_x + 1, n_y + 1, n_z + 1] + widen, 'arrowhead', buffer, err)
     if (err%failed) return
     count = 0
-    do i = -n_x, n_x
-      z_low = slope * abs(i)
-      do j = 0, n_y
-        do k = 0, n_z
-          if (k >= z_low - tol .and. k < z_low + middle_height - tol) then
+    do i = -n_x - widen, n_x
+      point(1) = i + shift(1)
+      if (abs(point(1)) > 0.5_dp * length + tol) cycle
+      z_low = slope * abs(point(1))
+      do j = -widen, n_y
+        point(2) = j + shift(2)
+        if (point(2) < -tol .or. point(2) > width + tol) cycle
+        do k = -widen, n_z
+          point(3) = k + shift(3)
+          if (point(3) >= z_low - tol .and. point(3) < z_low + middle_height - tol) then
             count = count + 1
-            buffer(:, count) = [real(i, dp), real(j, dp), real(k, dp)]
+            buffer(:, count) = point
           end if
         end do
       end do
@@ -174,13 +183,14 @@ contains
   !> Output is rotated (x, y, z) -> (x, -z, y): ellipse in the xz plane, semi-major axis along
   !> x, gap on the +z axis, pipe thickness along y.
   !> For the paper's rings pass pipe_radius = paper_ring_pipe_radius (R - d/2, see shapes/README.md).
-  subroutine build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle_deg, centres, err)
+  subroutine build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle_deg, centres, err, offset)
     real(dp), intent(in) :: semi_major, semi_minor, pipe_radius, gap_half_angle_deg
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)   ! of the lattice against the body, output frame
     real(dp), allocatable :: buffer(:, :)
-    real(dp) :: gap, dist2, theta_star, off_gap, r2_max, rho
-    integer :: n_x, n_y, n_z, i, j, k, count
+    real(dp) :: gap, dist2, theta_star, off_gap, r2_max, rho, shift(3), x, y, z
+    integer :: n_x, n_y, n_z, i, j, k, count, widen
 
     allocate (centres(3, 0))
     if (.not. positive_size(semi_major, 'open_ring: semi_major', err)) return
@@ -205,23 +215,30 @@ contains
     n_x = ceiling(semi_major + pipe_radius)
     n_y = ceiling(semi_minor + pipe_radius)
     n_z = ceiling(pipe_radius)
-    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1], 'open_ring', buffer, err)
+    ! The output (x, -z, y) is shifted by `offset`: in the ring's own frame x by offset(1), y by
+    ! offset(3) and z by -offset(2); a shifted lattice needs one more node at each end.
+    shift = lattice_shift(offset)
+    widen = merge(1, 0, any(shift /= 0.0_dp))
+    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1] + 2 * widen, 'open_ring', buffer, err)
     if (err%failed) return
     count = 0
-    do j = -n_y, n_y
-      do i = -n_x, n_x
+    do j = -n_y - widen, n_y + widen
+      y = j + shift(3)
+      do i = -n_x - widen, n_x + widen
+        x = i + shift(1)
         ! cheap rejection: every ellipse point has radius in [b, a]
-        rho = sqrt(real(i * i + j * j, dp))
+        rho = sqrt(x**2 + y**2)
         if (max(semi_minor - rho, rho - semi_major) >= pipe_radius) cycle
-        call nearest_on_ellipse(semi_major, semi_minor, real(i, dp), real(j, dp), dist2, theta_star)
+        call nearest_on_ellipse(semi_major, semi_minor, x, y, dist2, theta_star)
         if (dist2 >= r2_max) cycle
         ! angular distance of theta* from theta_0 = 90 deg, wrapped to [0, pi]
         off_gap = abs(modulo(theta_star - 0.5_dp * pi + pi, 2.0_dp * pi) - pi)
         if (off_gap <= gap + boundary_tolerance) cycle
-        do k = -n_z, n_z
-          if (dist2 + real(k * k, dp) < r2_max) then
+        do k = -n_z - widen, n_z + widen
+          z = k - shift(2)
+          if (dist2 + z**2 < r2_max) then
             count = count + 1
-            buffer(:, count) = [real(i, dp), real(-k, dp), real(j, dp)]  ! (x, -z, y)
+            buffer(:, count) = [x, -z, y]  ! (x, -z, y)
           end if
         end do
       end do
@@ -358,15 +375,17 @@ contains
   !> Inclusive tests with a margin boundary_tolerance * max(1, s) (no node of the paper's
   !> model is closer than 0.007 to a surface). An integer x that only touches the curve
   !> (double root, no sign change) is not detected: it does not occur for s = 6.2.
-  subroutine build_crescent_moon(scale, section_ratio, centres, err)
+  subroutine build_crescent_moon(scale, section_ratio, centres, err, offset)
     real(dp), intent(in) :: scale, section_ratio
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)   ! of the lattice against the body (lattice_nodes_inside)
     real(dp), allocatable :: buffer(:, :)
     real(dp) :: eta_x, eta_z, tol, z_min, z_max, z_mid, semi_a, semi_b, x, y, z
     real(dp) :: hole_x, hole_z, hole_r
+    real(dp) :: shift(3)
     logical :: found
-    integer :: n_x, n_y, n_z, i, j, k, count
+    integer :: n_x, n_y, n_z, i, j, k, count, widen
 
     allocate (centres(3, 0))
     if (.not. positive_size(scale, 'crescent_moon: scale', err)) return
@@ -383,24 +402,26 @@ contains
     n_x = ceiling(6.0_dp * eta_x)          ! |5 cos p - sin 2p| <= 6
     n_z = ceiling(7.0_dp * eta_z) + 1      ! |3 sin p + 2 cos 2p| <= 5 < 7
     n_y = ceiling(section_ratio * n_z) + 1
-    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1], 'crescent_moon', buffer, err)
+    shift = lattice_shift(offset)
+    widen = merge(1, 0, any(shift /= 0.0_dp))   ! a shifted lattice: one more node at each end
+    call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1] + 2 * widen, 'crescent_moon', buffer, err)
     if (err%failed) return
     count = 0
-    do i = -n_x, n_x
-      x = real(i, dp)
+    do i = -n_x - widen, n_x + widen
+      x = i + shift(1)
       call curve_z_range(eta_x, eta_z, x, z_min, z_max, found)
       if (.not. found) cycle
       z_mid = 0.5_dp * (z_min + z_max)
       semi_a = 0.5_dp * (z_max - z_min)
       semi_b = section_ratio * semi_a
       if (semi_a <= tol) cycle
-      do k = -n_z, n_z
-        z = real(k, dp)
+      do k = -n_z - widen, n_z + widen
+        z = k + shift(3)
         ! holes: cylinders along y through (+-x_c, z_c), radius 0.4 s
         if ((x - hole_x)**2 + (z - hole_z)**2 <= hole_r**2 + tol) cycle
         if ((x + hole_x)**2 + (z - hole_z)**2 <= hole_r**2 + tol) cycle
-        do j = -n_y, n_y
-          y = real(j, dp)
+        do j = -n_y - widen, n_y + widen
+          y = j + shift(2)
           if ((y / semi_b)**2 + ((z - z_mid) / semi_a)**2 > 1.0_dp + tol) cycle
           ! planes: y_- <= y <= y_+, y_-+ = +-(7/20) eps z -+ (19/40) b
           if (abs(y) > 19.0_dp / 40.0_dp * semi_b - 7.0_dp / 20.0_dp * section_ratio * z + tol) cycle

@@ -48,6 +48,12 @@ contains
         return
       end if
     end if
+    if (.not. all(shape_config%lattice_offset >= 0.0_dp .and. shape_config%lattice_offset < 1.0_dp)) then
+      call raise(err, '&shape lattice_offset must be in [0, 1) (a fraction of d) on each axis, got ' // &
+                 str(shape_config%lattice_offset(1)) // ', ' // str(shape_config%lattice_offset(2)) // ', ' // &
+                 str(shape_config%lattice_offset(3)))
+      return
+    end if
 
     select case (name)
     case ('cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring')
@@ -62,6 +68,11 @@ contains
       call raise(err, "unknown shape name '" // name // "' (known: " // known_shape_names // ')')
     end select
     if (err%failed) return
+    if (any(shape_config%lattice_offset /= 0.0_dp)) then
+      call add_parameter(model, 'lattice_offset_x', shape_config%lattice_offset(1))
+      call add_parameter(model, 'lattice_offset_y', shape_config%lattice_offset(2))
+      call add_parameter(model, 'lattice_offset_z', shape_config%lattice_offset(3))
+    end if
     if (is_set(shape_config%reference_length)) then
       ! in the unit of the shape's lengths: d, or the unit bead_diameter is given in
       model%reference_length = shape_config%reference_length
@@ -88,17 +99,18 @@ contains
     if (err%failed) return
     select case (trim(c%name))
     case ('cone')
-      call only_given(c, [character(len=32) :: 'base_diameter', 'height', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'base_diameter', 'height', 'bead_diameter', 'lattice_offset'], err)
       if (err%failed) return
       associate (base_diameter => size_of('base_diameter', c%base_diameter, preset%base_diameter), &
                  height => size_of('height', c%height, preset%height))
         if (err%failed) return
         call add_parameter(model, 'base_diameter', pick(c%base_diameter, preset%base_diameter))
         call add_parameter(model, 'height', pick(c%height, preset%height))
-        call build_cone(base_diameter, height, model%centres, err)
+        call build_cone(base_diameter, height, model%centres, err, c%lattice_offset)
       end associate
     case ('arrowhead')
-      call only_given(c, [character(len=32) :: 'length', 'height', 'middle_height', 'width', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'length', 'height', 'middle_height', 'width', 'bead_diameter', &
+                                               'lattice_offset'], err)
       if (err%failed) return
       associate (length => size_of('length', c%length, preset%length), height => size_of('height', c%height, preset%height), &
                  middle_height => size_of('middle_height', c%middle_height, preset%middle_height), &
@@ -108,20 +120,20 @@ contains
         call add_parameter(model, 'height', pick(c%height, preset%height))
         call add_parameter(model, 'middle_height', pick(c%middle_height, preset%middle_height))
         call add_parameter(model, 'width', pick(c%width, preset%width))
-        call build_arrowhead(length, height, middle_height, width, model%centres, err)
+        call build_arrowhead(length, height, middle_height, width, model%centres, err, c%lattice_offset)
       end associate
     case ('crescent_moon')
-      call only_given(c, [character(len=32) :: 'scale', 'section_ratio', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'scale', 'section_ratio', 'bead_diameter', 'lattice_offset'], err)
       if (err%failed) return
       associate (scale => size_of('scale', c%scale, preset%scale), section_ratio => pick(c%section_ratio, preset%section_ratio))
         if (err%failed) return
         call add_parameter(model, 'scale', pick(c%scale, preset%scale))
         call add_parameter(model, 'section_ratio', section_ratio)
-        call build_crescent_moon(scale, section_ratio, model%centres, err)
+        call build_crescent_moon(scale, section_ratio, model%centres, err, c%lattice_offset)
       end associate
     case default   ! open rings: the four presets and the generic 'open_ring'
       call only_given(c, [character(len=32) :: 'semi_major', 'semi_minor', 'pipe_radius', 'gap_half_angle', &
-                                               'gap_arc_length', 'bead_diameter'], err)
+                                               'gap_arc_length', 'bead_diameter', 'lattice_offset'], err)
       if (err%failed) return
       if (trim(c%name) == 'open_ring') then
         call require(c, 'semi_major', c%semi_major, err)
@@ -150,7 +162,8 @@ contains
         call add_parameter(model, 'semi_minor', pick(c%semi_minor, preset%semi_minor))
         call add_parameter(model, 'pipe_radius', pick(c%pipe_radius, preset%pipe_radius))
         call add_parameter(model, 'gap_half_angle', gap_half_angle)
-        call build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle, model%centres, err)
+        call build_open_ring(semi_major, semi_minor, pipe_radius, gap_half_angle, model%centres, err, &
+                             c%lattice_offset)
       end associate
     end select
     ! L is the paper's L/d only for the paper's own parameters.
@@ -212,19 +225,19 @@ contains
       call add_parameter(model, 'n_beads', real(c%n_beads, dp))
       call build_chain(c%n_beads, model%centres, err)
     case ('sphere')
-      call only_given(c, [character(len=32) :: 'radius', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'radius', 'bead_diameter', 'lattice_offset'], err)
       call require(c, 'radius', c%radius, err)
       if (err%failed) return
       call add_parameter(model, 'radius', c%radius)
-      call build_filled_sphere(c%radius * per_d, model%centres, err)
+      call build_filled_sphere(c%radius * per_d, model%centres, err, c%lattice_offset)
     case ('spheroid')
-      call only_given(c, [character(len=32) :: 'semi_axes', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'semi_axes', 'bead_diameter', 'lattice_offset'], err)
       if (.not. all(is_set(c%semi_axes))) call raise(err, "&shape: shape 'spheroid' needs semi_axes = a, b, c")
       if (err%failed) return
       do k = 1, 3
         call add_parameter(model, 'semi_axis_' // achar(iachar('x') + k - 1), c%semi_axes(k))
       end do
-      call build_spheroid(c%semi_axes * per_d, model%centres, err)
+      call build_spheroid(c%semi_axes * per_d, model%centres, err, c%lattice_offset)
     case ('box')
       call only_given(c, [character(len=32) :: 'box_beads'], err)
       if (.not. all(is_set(c%box_beads))) call raise(err, "&shape: shape 'box' needs box_beads = nx, ny, nz")
@@ -234,13 +247,13 @@ contains
       end do
       call build_box(c%box_beads(1), c%box_beads(2), c%box_beads(3), model%centres, err)
     case ('torus')
-      call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius', 'bead_diameter'], err)
+      call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius', 'bead_diameter', 'lattice_offset'], err)
       call require(c, 'major_radius', c%major_radius, err)
       call require(c, 'minor_radius', c%minor_radius, err)
       if (err%failed) return
       call add_parameter(model, 'major_radius', c%major_radius)
       call add_parameter(model, 'minor_radius', c%minor_radius)
-      call build_torus(c%major_radius * per_d, c%minor_radius * per_d, model%centres, err)
+      call build_torus(c%major_radius * per_d, c%minor_radius * per_d, model%centres, err, c%lattice_offset)
     end select
   end subroutine build_simple_shape
 
@@ -284,7 +297,7 @@ contains
     integer :: sizes(2), ierr   ! beads, triangles
     real(dp) :: per_d
 
-    call only_given(c, [character(len=32) :: 'file', 'bead_diameter'], err)
+    call only_given(c, [character(len=32) :: 'file', 'bead_diameter', 'lattice_offset'], err)
     if (len_trim(c%file) == 0) call raise(err, "&shape: shape 'mesh' needs file = 'path' (.stl or .obj)")
     call require(c, 'bead_diameter (the bead diameter in the mesh''s length unit)', c%bead_diameter, err)
     if (err%failed) return
@@ -294,7 +307,8 @@ contains
     if (ctx%rank == 0) then
       call read_triangle_mesh(trim(c%file), mesh, err)
       if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
-      if (.not. err%failed) call fill_mesh_on_lattice(mesh, per_d, trim(c%file), model%centres, err)
+      if (.not. err%failed) call fill_mesh_on_lattice(mesh, per_d, trim(c%file), model%centres, err, &
+                                                                    c%lattice_offset)
       if (.not. err%failed) then
         if (size(model%centres, 2) == 0) call raise(err, "mesh file '" // trim(c%file) // &
           "': no lattice node inside at bead_diameter = " // str(c%bead_diameter) // ' (a finer resolution is needed)')
@@ -344,7 +358,7 @@ contains
     type(shape_config_t), intent(in) :: c
     character(len=*), intent(in) :: allowed(:)
     type(error_t), intent(inout) :: err
-    type(named_value_t) :: given(21)
+    type(named_value_t) :: given(22)
     integer :: k
     given = [named_value_t('base_diameter', is_set(c%base_diameter)), named_value_t('height', is_set(c%height)), &
              named_value_t('length', is_set(c%length)), named_value_t('middle_height', is_set(c%middle_height)), &
@@ -358,7 +372,8 @@ contains
              named_value_t('minor_radius', is_set(c%minor_radius)), &
              named_value_t('semi_axes', any(is_set(c%semi_axes))), named_value_t('n_beads', is_set(c%n_beads)), &
              named_value_t('box_beads', any(is_set(c%box_beads))), named_value_t('file', len_trim(c%file) > 0), &
-             named_value_t('bead_diameter', is_set(c%bead_diameter))]
+             named_value_t('bead_diameter', is_set(c%bead_diameter)), &
+             named_value_t('lattice_offset', any(c%lattice_offset /= 0.0_dp))]
     do k = 1, size(given)
       if (given(k)%given .and. .not. any(allowed == given(k)%name)) then
         call raise(err, "&shape: parameter '" // trim(given(k)%name) // "' is not taken by shape '" // &

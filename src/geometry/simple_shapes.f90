@@ -12,7 +12,7 @@ module beadmob_simple_shapes
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_size_checks, only: positive_size
-  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites
+  use beadmob_lattice_fill, only: lattice_nodes_inside, boundary_tolerance, reserve_sites, lattice_shift
   implicit none
   private
   public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
@@ -70,22 +70,25 @@ contains
     end do
   end subroutine build_chain
 
-  !> All lattice nodes with |r| <= radius (node at the origin).
-  subroutine build_filled_sphere(radius, centres, err)
+  !> All lattice points with |r| <= radius (node at the origin; `offset`: lattice_nodes_inside).
+  subroutine build_filled_sphere(radius, centres, err, offset)
     real(dp), intent(in) :: radius
     real(dp), allocatable, intent(out) :: centres(:, :)
+    real(dp), intent(in), optional :: offset(3)
     type(error_t), intent(inout) :: err
     if (.not. positive_size(radius, 'filled_sphere: radius', err)) then
       allocate (centres(3, 0))
       return
     end if
-    call build_spheroid([radius, radius, radius], centres, err)
+    call build_spheroid([radius, radius, radius], centres, err, offset)
   end subroutine build_filled_sphere
 
-  !> All lattice nodes with sum_i (x_i / a_i)**2 <= 1 (node at the origin).
-  subroutine build_spheroid(semi_axes, centres, err)
+  !> All lattice points with sum_i (x_i / a_i)**2 <= 1 (node at the origin; `offset`:
+  !> lattice_nodes_inside).
+  subroutine build_spheroid(semi_axes, centres, err, offset)
     real(dp), intent(in) :: semi_axes(3)
     real(dp), allocatable, intent(out) :: centres(:, :)
+    real(dp), intent(in), optional :: offset(3)
     type(error_t), intent(inout) :: err
     integer :: n(3), i
     do i = 1, 3
@@ -95,7 +98,7 @@ contains
       end if
     end do
     n = floor(semi_axes * (1.0_dp + boundary_tolerance))
-    call lattice_nodes_inside(-n, n, inside_spheroid, 'spheroid', centres, err)
+    call lattice_nodes_inside(-n, n, inside_spheroid, 'spheroid', lattice_shift(offset), centres, err)
   contains
     logical function inside_spheroid(node)
       real(dp), intent(in) :: node(3)
@@ -128,12 +131,13 @@ contains
     end do
   end subroutine build_box
 
-  !> Lattice nodes within minor_radius of the circle of radius major_radius in the xy plane
+  !> Lattice points (`offset`: lattice_nodes_inside) within minor_radius of the circle of radius major_radius in the xy plane
   !> centred at the origin (axis z): (sqrt(x**2 + y**2) - major_radius)**2 + z**2 <= minor**2.
   !> minor_radius > major_radius (a spindle torus) is allowed: the same distance test applies.
-  subroutine build_torus(major_radius, minor_radius, centres, err)
+  subroutine build_torus(major_radius, minor_radius, centres, err, offset)
     real(dp), intent(in) :: major_radius, minor_radius
     real(dp), allocatable, intent(out) :: centres(:, :)
+    real(dp), intent(in), optional :: offset(3)
     type(error_t), intent(inout) :: err
     integer :: n_xy, n_z
     if (.not. positive_size(major_radius, 'torus: major_radius', err)) then
@@ -146,7 +150,8 @@ contains
     end if
     n_xy = floor((major_radius + minor_radius) * (1.0_dp + boundary_tolerance))
     n_z = floor(minor_radius * (1.0_dp + boundary_tolerance))
-    call lattice_nodes_inside([-n_xy, -n_xy, -n_z], [n_xy, n_xy, n_z], inside_torus, 'torus', centres, err)
+    call lattice_nodes_inside([-n_xy, -n_xy, -n_z], [n_xy, n_xy, n_z], inside_torus, 'torus', lattice_shift(offset), &
+                              centres, err)
   contains
     logical function inside_torus(node)
       real(dp), intent(in) :: node(3)

@@ -17,7 +17,7 @@ module beadmob_triangle_mesh
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_spatial_index, only: sort_keys, lower_bound
-  use beadmob_lattice_fill, only: reserve_sites
+  use beadmob_lattice_fill, only: reserve_sites, lattice_shift
   implicit none
   private
   public :: triangle_mesh_t, read_triangle_mesh, check_closed_mesh, fill_mesh_on_lattice
@@ -380,19 +380,24 @@ contains
 
   !> The lattice nodes inside the mesh scaled by `scale` (mesh units -> d), in the order x
   !> fastest, then y, then z (the order of the analytic shapes), by the winding numbers of the
-  !> module header. `path` names the file in errors.
-  subroutine fill_mesh_on_lattice(mesh, scale, path, centres, err)
+  !> module header. `path` names the file in errors. `offset` (d, each in [0, 1)) shifts the
+  !> lattice against the body: the points node + offset inside the mesh.
+  subroutine fill_mesh_on_lattice(mesh, scale, path, centres, err, offset)
     type(triangle_mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: scale
     character(len=*), intent(in) :: path
     real(dp), allocatable, intent(out) :: centres(:, :)
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)
     real(dp), allocatable :: points(:, :), crossing_z(:), buffer(:, :)
     integer, allocatable :: column_start(:), column_triangles(:), crossing_sign(:), fill(:)
     integer(i8), allocatable :: keys(:), order(:)
     integer :: lower(3), upper(3), width(2), t, i, j, k, column, n_columns, n_crossings, c, winding, count, slot
     real(dp) :: low(2), high(2), ray(2), w(3), z
-    points = scale * mesh%vertices
+    real(dp) :: shift(3)
+    shift = lattice_shift(offset)
+    ! The mesh moved by -offset and filled at the integer nodes, which then move back by +offset.
+    points = scale * mesh%vertices - spread(shift, 2, size(mesh%vertices, 2))
     lower = ceiling(minval(points, dim=2))
     upper = floor(maxval(points, dim=2))
     allocate (centres(3, 0))
@@ -487,7 +492,7 @@ contains
       order(c) = c
     end do
     call sort_keys(keys, order)
-    centres = buffer(:, order)
+    centres = buffer(:, order) + spread(shift, 2, count)
 
   contains
 
