@@ -1,0 +1,82 @@
+!> Volume, first and second moments of the body a bead model fills, in the shape's own length
+!> unit: each bead centre stands for a lattice cell of volume d^3. Averaged over uniform
+!> sub-lattice offsets, the lattice sums are exactly the body's integrals (the mean of
+!> sum_n f(n + offset) over offsets is int f dV / d^3), so a few dozen cheap fills give the
+!> continuum body's volume and moments without a formula for each shape (docs/theory.md T16).
+module beadmob_body_moments
+  use beadmob_kinds, only: dp, i8
+  use beadmob_errors, only: error_t, raise
+  use beadmob_lapack, only: dsyev
+  implicit none
+  private
+  public :: body_moments_t, moments_of_beads, equivalent_ellipsoid
+
+  real(dp), parameter :: pi = acos(-1.0_dp)
+
+  !> volume = N d^3, first = d^3 sum x, second = d^3 sum x x^T (x = centre * d, shape units).
+  type :: body_moments_t
+    real(dp) :: volume = 0.0_dp
+    real(dp) :: first(3) = 0.0_dp
+    real(dp) :: second(3, 3) = 0.0_dp
+  contains
+    procedure :: centroid
+  end type body_moments_t
+
+contains
+
+  !> The moments of the beads at `centres` (in d) for a bead diameter d (shape units).
+  pure function moments_of_beads(centres, d) result(moments)
+    real(dp), intent(in) :: centres(:, :), d
+    type(body_moments_t) :: moments
+    integer(i8) :: i
+    integer :: a, b
+    do i = 1, size(centres, 2, kind=i8)
+      moments%first = moments%first + centres(:, i)
+      do b = 1, 3
+        do a = 1, 3
+          moments%second(a, b) = moments%second(a, b) + centres(a, i) * centres(b, i)
+        end do
+      end do
+    end do
+    moments%volume = size(centres, 2) * d**3
+    moments%first = moments%first * d**4
+    moments%second = moments%second * d**5
+  end function moments_of_beads
+
+  pure function centroid(moments)
+    class(body_moments_t), intent(in) :: moments
+    real(dp) :: centroid(3)
+    centroid = moments%first / moments%volume
+  end function centroid
+
+  !> The ellipsoid of the body's volume whose axes and proportions are those of its second
+  !> moments about the centroid (a solid ellipsoid's are a_i^2 / 5 on its axes); `cell` is added
+  !> to each moment per volume (d^2 / 12, a lattice cell's own, keeps a flat layer of beads
+  !> from a zero axis). Axes: columns, in the shape's coordinates.
+  subroutine equivalent_ellipsoid(moments, cell, semi_axes, axes, err)
+    type(body_moments_t), intent(in) :: moments
+    real(dp), intent(in) :: cell
+    real(dp), intent(out) :: semi_axes(3), axes(3, 3)
+    type(error_t), intent(inout) :: err
+    real(dp) :: c(3), eigenvalues(3), work(64)
+    integer :: info, k
+    semi_axes = 0.0_dp
+    if (.not. (moments%volume > 0.0_dp)) then
+      call raise(err, 'equivalent ellipsoid: a body without volume')
+      return
+    end if
+    c = moments%centroid()
+    axes = moments%second / moments%volume
+    do k = 1, 3
+      axes(:, k) = axes(:, k) - c * c(k)
+      axes(k, k) = axes(k, k) + cell
+    end do
+    call dsyev('V', 'U', 3, axes, 3, eigenvalues, work, size(work), info)
+    if (info /= 0 .or. .not. all(eigenvalues > 0.0_dp)) then
+      call raise(err, 'equivalent ellipsoid: the second moments are not positive')
+      return
+    end if
+    semi_axes = sqrt(5.0_dp * eigenvalues)
+    semi_axes = semi_axes * (3.0_dp * moments%volume / (4.0_dp * pi * product(semi_axes)))**(1.0_dp / 3.0_dp)
+  end subroutine equivalent_ellipsoid
+end module beadmob_body_moments

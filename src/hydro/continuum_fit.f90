@@ -1,0 +1,133 @@
+!> The continuum limit of a ladder of bead models (docs/theory.md T16): one quantity (a
+!> mobility entry, a coefficient) known at each level k as the mean over its sub-lattice offsets,
+!> with that mean's standard error, is extrapolated to zero bead size h = d by weighted least
+!> squares in h and h^2 (measured on spheres and ellipsoids: the offset-averaged, volume- and
+!> shape-corrected error of an order-L bead model is smooth in h and vanishes with it,
+!> bench/continuum/continuum.md). The error bar adds
+!>   - twice the fit's standard error of the intercept (inflated by the reduced chi^2 when the
+!>     levels scatter more than their standard errors say),
+!>   - the model spread: how far the straight line through the three finest levels and the
+!>     quadratic without the coarsest level land from the quadratic, and
+!>   - what the caller knows besides (the continuum volume's own uncertainty).
+module beadmob_continuum_fit
+  use beadmob_kinds, only: dp
+  implicit none
+  private
+  public :: continuum_value_t, extrapolate_to_zero, level_mean
+
+  !> One quantity's continuum value and the parts of its error bar.
+  type :: continuum_value_t
+    real(dp) :: value = 0.0_dp          ! intercept of the quadratic fit over all levels
+    real(dp) :: standard_error = 0.0_dp ! of that intercept
+    real(dp) :: linear_value = 0.0_dp   ! intercept of the line through the three finest levels
+    real(dp) :: reduced_value = 0.0_dp  ! intercept of the quadratic without the coarsest level
+    real(dp) :: slope = 0.0_dp          ! d value / d h at h = 0
+    real(dp) :: error = 0.0_dp          ! the error bar (module header)
+  end type continuum_value_t
+
+contains
+
+  !> Mean over a level's samples and its standard error (sample standard deviation / sqrt(n)).
+  pure subroutine level_mean(samples, mean, standard_error)
+    real(dp), intent(in) :: samples(:)
+    real(dp), intent(out) :: mean, standard_error
+    integer :: n
+    n = size(samples)
+    mean = sum(samples) / n
+    standard_error = 0.0_dp
+    if (n > 1) standard_error = sqrt(sum((samples - mean)**2) / (n - 1) / n)
+  end subroutine level_mean
+
+  !> The extrapolation of (h_k, mean_k +- standard_error_k), k = 1..K (K >= 3, any order of h);
+  !> `extra` is added to the error bar.
+  pure function extrapolate_to_zero(h, mean, standard_error, extra) result(fit)
+    real(dp), intent(in) :: h(:), mean(:), standard_error(:), extra
+    type(continuum_value_t) :: fit
+    real(dp) :: weights(size(h)), coefficients(3), variance, chi2
+    integer :: order(size(h)), n
+    n = size(h)
+    ! A level whose offsets agree to rounding must not take all the weight: a floor of 1e-9 of the value.
+    weights = 1.0_dp / max(standard_error, 1.0e-9_dp * abs(mean), tiny(1.0_dp))**2
+    call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
+    fit%value = coefficients(1)
+    fit%slope = coefficients(2)
+    if (n > 3) variance = variance * max(1.0_dp, chi2 / (n - 3))
+    fit%standard_error = sqrt(variance)
+    ! The three finest levels (smallest h) for the line; all but the coarsest for the reduced fit.
+    order = ranks_by_size(h)
+    associate (finest => order(1:3))
+      call weighted_polynomial(h(finest), mean(finest), weights(finest), 1, coefficients, variance, chi2)
+      fit%linear_value = coefficients(1)
+    end associate
+    fit%reduced_value = fit%value
+    if (n > 3) then
+      associate (kept => order(1:n - 1))
+        call weighted_polynomial(h(kept), mean(kept), weights(kept), 2, coefficients, variance, chi2)
+        fit%reduced_value = coefficients(1)
+      end associate
+    end if
+    fit%error = 2.0_dp * fit%standard_error + max(abs(fit%linear_value - fit%value), abs(fit%reduced_value - fit%value)) + &
+                extra
+  end function extrapolate_to_zero
+
+  !> Least squares of y ~ sum_j c_j x^(j-1), j = 1..degree+1, with weights w (1 / variance);
+  !> variance: of c_1; chi2: the weighted residual sum. Columns scaled by max |x| for conditioning.
+  pure subroutine weighted_polynomial(x, y, w, degree, coefficients, variance, chi2)
+    real(dp), intent(in) :: x(:), y(:), w(:)
+    integer, intent(in) :: degree
+    real(dp), intent(out) :: coefficients(3), variance, chi2
+    real(dp) :: basis(size(x), degree + 1), normal(degree + 1, degree + 1), inverse(degree + 1, degree + 1), scale
+    integer :: j
+    scale = maxval(abs(x))
+    do j = 1, degree + 1
+      basis(:, j) = (x / scale)**(j - 1)
+    end do
+    normal = matmul(transpose(basis), spread(w, 2, degree + 1) * basis)
+    inverse = inverted(normal)
+    coefficients = 0.0_dp
+    coefficients(1:degree + 1) = matmul(inverse, matmul(transpose(basis), w * y))
+    chi2 = sum(w * (y - matmul(basis, coefficients(1:degree + 1)))**2)
+    variance = inverse(1, 1)
+    do j = 2, degree + 1
+      coefficients(j) = coefficients(j) / scale**(j - 1)
+    end do
+  end subroutine weighted_polynomial
+
+  !> Inverse of a small symmetric positive definite matrix by Gauss-Jordan elimination.
+  pure function inverted(matrix) result(inverse)
+    real(dp), intent(in) :: matrix(:, :)
+    real(dp) :: inverse(size(matrix, 1), size(matrix, 1)), work(size(matrix, 1), 2 * size(matrix, 1)), pivot
+    integer :: n, i, k
+    n = size(matrix, 1)
+    work = 0.0_dp
+    work(:, 1:n) = matrix
+    do i = 1, n
+      work(i, n + i) = 1.0_dp
+    end do
+    do i = 1, n
+      pivot = work(i, i)
+      work(i, :) = work(i, :) / pivot
+      do k = 1, n
+        if (k /= i) work(k, :) = work(k, :) - work(k, i) * work(i, :)
+      end do
+    end do
+    inverse = work(:, n + 1:)
+  end function inverted
+
+  !> Indices of `values` from the smallest to the largest (insertion sort: a handful of levels).
+  pure function ranks_by_size(values) result(order)
+    real(dp), intent(in) :: values(:)
+    integer :: order(size(values)), i, j, held
+    order = [(i, i = 1, size(values))]
+    do i = 2, size(values)
+      held = order(i)
+      j = i - 1
+      do while (j >= 1)
+        if (values(order(j)) <= values(held)) exit
+        order(j + 1) = order(j)
+        j = j - 1
+      end do
+      order(j + 1) = held
+    end do
+  end function ranks_by_size
+end module beadmob_continuum_fit

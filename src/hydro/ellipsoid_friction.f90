@@ -1,0 +1,105 @@
+!> The exact Stokes friction of a rigid ellipsoid: the continuum job's model of how the
+!> friction of a bead model responds to the small changes of volume and shape that the lattice
+!> makes at each offset (continuum_fit.f90, docs/theory.md T16).
+!>
+!> Semi-axes a_i, Delta(l) = sqrt(prod_i (a_i^2 + l)), chi = int_0^inf dl / Delta and
+!> alpha_i = int_0^inf dl / ((a_i^2 + l) Delta). In the principal frame, viscosity 1:
+!>   force  F_i = 16 pi U_i / (chi + a_i^2 alpha_i)                        (Oberbeck 1876)
+!>   torque T_i = 16 pi (a_j^2 + a_k^2) Omega_i / (3 (a_j^2 alpha_j + a_k^2 alpha_k))  (Jeffery 1922)
+!> with chi = 2 R_F(a_1^2, a_2^2, a_3^2) and alpha_i = (2/3) R_D(a_j^2, a_k^2, a_i^2), Carlson's
+!> symmetric integrals (DLMF 19.16.1-2), evaluated by duplication (DLMF 19.36.1, Carlson 1995).
+module beadmob_ellipsoid_friction
+  use beadmob_kinds, only: dp
+  implicit none
+  private
+  public :: ellipsoid_friction, carlson_rf, carlson_rd
+
+  real(dp), parameter :: pi = acos(-1.0_dp)
+  !> Duplication stops when every argument is within this relative distance of their mean:
+  !> the series' first neglected terms are of sixth order in it (below 1e-17).
+  real(dp), parameter :: duplication_tolerance = 1.0e-3_dp
+
+contains
+
+  !> The 6x6 friction (rows force, torque; columns velocity, angular velocity) about the
+  !> centre of the ellipsoid with these semi-axes along the columns of `axes` (in the frame of
+  !> those coordinates), viscosity 1.
+  pure function ellipsoid_friction(semi_axes, axes) result(friction)
+    real(dp), intent(in) :: semi_axes(3), axes(3, 3)
+    real(dp) :: friction(6, 6)
+    real(dp) :: squares(3), chi, alpha(3), principal(6)
+    integer :: i, j, k
+    squares = semi_axes**2
+    chi = 2.0_dp * carlson_rf(squares(1), squares(2), squares(3))
+    do i = 1, 3
+      j = modulo(i, 3) + 1
+      k = modulo(i + 1, 3) + 1
+      alpha(i) = 2.0_dp / 3.0_dp * carlson_rd(squares(j), squares(k), squares(i))
+    end do
+    do i = 1, 3
+      j = modulo(i, 3) + 1
+      k = modulo(i + 1, 3) + 1
+      principal(i) = 16.0_dp * pi / (chi + squares(i) * alpha(i))
+      principal(3 + i) = 16.0_dp * pi * (squares(j) + squares(k)) / (3.0_dp * (squares(j) * alpha(j) + squares(k) * alpha(k)))
+    end do
+    ! Blocks A diag(f) A^T: the principal frame turned into the coordinates of `axes`.
+    friction = 0.0_dp
+    friction(1:3, 1:3) = matmul(axes, matmul(diagonal(principal(1:3)), transpose(axes)))
+    friction(4:6, 4:6) = matmul(axes, matmul(diagonal(principal(4:6)), transpose(axes)))
+  contains
+    pure function diagonal(values) result(matrix)
+      real(dp), intent(in) :: values(3)
+      real(dp) :: matrix(3, 3)
+      matrix = 0.0_dp
+      matrix(1, 1) = values(1)
+      matrix(2, 2) = values(2)
+      matrix(3, 3) = values(3)
+    end function diagonal
+  end function ellipsoid_friction
+
+  !> R_F(x, y, z) = (1/2) int_0^inf dt / sqrt((t + x)(t + y)(t + z)), x, y, z >= 0, at most one 0.
+  pure real(dp) function carlson_rf(x, y, z) result(rf)
+    real(dp), intent(in) :: x, y, z
+    real(dp) :: p(3), lambda, mean, dx, dy, dz, e2, e3
+    p = [x, y, z]
+    do
+      mean = sum(p) / 3.0_dp
+      if (maxval(abs(p - mean)) <= duplication_tolerance * mean) exit
+      lambda = sqrt(p(1) * p(2)) + sqrt(p(2) * p(3)) + sqrt(p(3) * p(1))
+      p = 0.25_dp * (p + lambda)
+    end do
+    dx = 1.0_dp - p(1) / mean
+    dy = 1.0_dp - p(2) / mean
+    dz = -(dx + dy)
+    e2 = dx * dy - dz**2
+    e3 = dx * dy * dz
+    rf = (1.0_dp - e2 / 10.0_dp + e3 / 14.0_dp + e2**2 / 24.0_dp - 3.0_dp * e2 * e3 / 44.0_dp) / sqrt(mean)
+  end function carlson_rf
+
+  !> R_D(x, y, z) = (3/2) int_0^inf dt / ((t + z) sqrt((t + x)(t + y)(t + z))), z > 0.
+  pure real(dp) function carlson_rd(x, y, z) result(rd)
+    real(dp), intent(in) :: x, y, z
+    real(dp) :: p(3), lambda, mean, weight, tail, dx, dy, dz, e2, e3, e4, e5
+    p = [x, y, z]
+    weight = 1.0_dp
+    tail = 0.0_dp
+    do
+      mean = (p(1) + p(2) + 3.0_dp * p(3)) / 5.0_dp
+      if (maxval(abs(p - mean)) <= duplication_tolerance * mean) exit
+      lambda = sqrt(p(1) * p(2)) + sqrt(p(2) * p(3)) + sqrt(p(3) * p(1))
+      tail = tail + weight / (sqrt(p(3)) * (p(3) + lambda))
+      weight = 0.25_dp * weight
+      p = 0.25_dp * (p + lambda)
+    end do
+    dx = 1.0_dp - p(1) / mean
+    dy = 1.0_dp - p(2) / mean
+    dz = -(dx + dy) / 3.0_dp
+    e2 = dx * dy - 6.0_dp * dz**2
+    e3 = (3.0_dp * dx * dy - 8.0_dp * dz**2) * dz
+    e4 = 3.0_dp * (dx * dy - dz**2) * dz**2
+    e5 = dx * dy * dz**3
+    rd = weight / (mean * sqrt(mean)) * (1.0_dp - 3.0_dp * e2 / 14.0_dp + e3 / 6.0_dp + 9.0_dp * e2**2 / 88.0_dp - &
+                                        3.0_dp * e4 / 22.0_dp - 9.0_dp * e2 * e3 / 52.0_dp + 3.0_dp * e5 / 26.0_dp) + &
+         3.0_dp * tail
+  end function carlson_rd
+end module beadmob_ellipsoid_friction

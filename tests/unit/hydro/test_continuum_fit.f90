@@ -1,0 +1,69 @@
+!> Tests src/hydro/ellipsoid_friction.f90 and src/hydro/continuum_fit.f90.
+!> CTest: test_continuum_fit_np1 and test_continuum_fit_np2.
+!> Carlson's integrals against his published test values (B. C. Carlson, "Numerical computation
+!> of real or complex elliptic integrals", Numer. Algorithms 10 (1995) 13-26, section 3), the
+!> ellipsoid friction against the sphere (Stokes: 6 pi a, 8 pi a^3) and the prolate spheroid's
+!> closed forms (Happel & Brenner 1965, sec. 4-30; Kim & Karrila 1991, table 3.4), turned into
+!> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one.
+program test_continuum_fit
+  use beadmob_kinds, only: dp
+  use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
+  use beadmob_ellipsoid_friction, only: ellipsoid_friction, carlson_rf, carlson_rd
+  use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean
+  implicit none
+  real(dp), parameter :: pi = acos(-1.0_dp)
+  type(test_suite_t) :: suite
+  type(continuum_value_t) :: fit
+  real(dp) :: friction(6, 6), identity(3, 3), rotation(3, 3), a, b, e, l, axial, transverse, h(5), y(5), se(5)
+  real(dp) :: mean, error
+  integer :: k
+
+  suite = start_tests('test_continuum_fit')
+  call check_close(suite, carlson_rf(1.0_dp, 2.0_dp, 0.0_dp), 1.3110287771461_dp, 1.0e-12_dp, 'R_F(1, 2, 0)')
+  call check_close(suite, carlson_rf(2.0_dp, 3.0_dp, 4.0_dp), 0.58408284167715_dp, 1.0e-12_dp, 'R_F(2, 3, 4)')
+  call check_close(suite, carlson_rd(0.0_dp, 2.0_dp, 1.0_dp), 1.7972103521034_dp, 1.0e-12_dp, 'R_D(0, 2, 1)')
+  call check_close(suite, carlson_rd(2.0_dp, 3.0_dp, 4.0_dp), 0.16510527294261_dp, 1.0e-12_dp, 'R_D(2, 3, 4)')
+
+  identity = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+  friction = ellipsoid_friction([2.5_dp, 2.5_dp, 2.5_dp], identity)
+  do k = 1, 3
+    call check_close(suite, friction(k, k), 6.0_dp * pi * 2.5_dp, 1.0e-12_dp, 'sphere: translation 6 pi a')
+    call check_close(suite, friction(k + 3, k + 3), 8.0_dp * pi * 2.5_dp**3, 1.0e-12_dp, 'sphere: rotation 8 pi a^3')
+  end do
+  call check(suite, maxval(abs(friction(1:3, 4:6))) == 0.0_dp, 'sphere: no coupling')
+
+  ! Prolate spheroid, semi-axes a > b = b along x: eccentricity e, L = ln((1 + e) / (1 - e)).
+  a = 4.0_dp
+  b = 1.5_dp
+  e = sqrt(1.0_dp - (b / a)**2)
+  l = log((1.0_dp + e) / (1.0_dp - e))
+  axial = 16.0_dp * pi * a * e**3 / ((1.0_dp + e**2) * l - 2.0_dp * e)
+  transverse = 32.0_dp * pi * a * e**3 / (2.0_dp * e + (3.0_dp * e**2 - 1.0_dp) * l)
+  ! The same body with its long axis along z (a rotation about y by 90 degrees).
+  rotation = reshape([0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp], [3, 3])
+  friction = ellipsoid_friction([a, b, b], rotation)
+  call check_close(suite, friction(3, 3), axial, 1.0e-12_dp, 'prolate: axial translation (long axis turned to z)')
+  call check_close(suite, friction(1, 1), transverse, 1.0e-12_dp, 'prolate: transverse translation')
+  call check(suite, abs(friction(1, 3)) < 1.0e-12_dp * axial, 'prolate: principal frame kept')
+
+  ! A quadratic in h is its own continuum limit; the error bar is at rounding.
+  h = [0.1_dp, 0.125_dp, 0.16_dp, 0.2_dp, 0.25_dp]
+  y = 2.0_dp + 3.0_dp * h - 5.0_dp * h**2
+  se = 1.0e-3_dp
+  fit = extrapolate_to_zero(h, y, se, 0.0_dp)
+  call check_close(suite, fit%value, 2.0_dp, 1.0e-12_dp, 'quadratic: intercept')
+  call check_close(suite, fit%slope, 3.0_dp, 1.0e-9_dp, 'quadratic: slope')
+  call check(suite, abs(fit%reduced_value - 2.0_dp) < 1.0e-12_dp, 'quadratic: the reduced fit agrees')
+  ! The line through the three finest levels misses the curvature: the model spread shows it.
+  call check(suite, fit%error >= abs(fit%linear_value - 2.0_dp) .and. fit%error > 1.0e-3_dp, &
+             'quadratic: the error bar holds the line''s distance')
+  ! Noise of +-se around a cubic: the bar must hold the truth (2) and stay of the noise's size.
+  y = 2.0_dp + 3.0_dp * h - 5.0_dp * h**2 + 4.0_dp * h**3 + 1.0e-3_dp * [1.0_dp, -1.0_dp, 0.5_dp, 1.0_dp, -0.5_dp]
+  fit = extrapolate_to_zero(h, y, se, 0.0_dp)
+  call check(suite, abs(fit%value - 2.0_dp) <= fit%error, 'noisy cubic: the error bar holds the truth')
+  call check(suite, fit%error < 0.1_dp, 'noisy cubic: the error bar is of the noise''s size')
+  call level_mean([1.0_dp, 2.0_dp, 3.0_dp, 4.0_dp], mean, error)
+  call check_close(suite, mean, 2.5_dp, 1.0e-15_dp, 'level mean')
+  call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-15_dp, 'level standard error')
+  call finish_tests(suite)
+end program test_continuum_fit
