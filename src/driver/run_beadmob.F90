@@ -28,6 +28,7 @@ module beadmob_run
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
   use beadmob_unit_lattice, only: on_unit_lattice
   use beadmob_job_planning, only: plan_friction_job
+  use beadmob_continuum_job, only: run_continuum_job
   implicit none
   private
   public :: run_beadmob, read_input_file
@@ -76,6 +77,13 @@ contains
     if (ctx%rank == 0) call check_output_locations(config, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
+    if (config%continuum%enabled) then
+      ! A ladder of friction jobs and its extrapolation (continuum_job.f90).
+      if (len_trim(config%hydrodynamics%cache_file) == 0) config%hydrodynamics%cache_file = environment_cache_file(ctx)
+      call run_continuum_job(ctx, config, err)
+      if (.not. err%failed .and. ctx%rank == 0 .and. .not. config%dry_run) call warn_unused_options()
+      return
+    end if
 
     call build_bead_model(ctx, config%shape, model, err)
     call agree_on_error(ctx, err)

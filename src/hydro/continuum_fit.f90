@@ -13,7 +13,35 @@ module beadmob_continuum_fit
   use beadmob_kinds, only: dp
   implicit none
   private
-  public :: continuum_value_t, extrapolate_to_zero, level_mean
+  public :: continuum_value_t, extrapolate_to_zero, level_mean, continuum_result_t
+
+  !> What a continuum job found (written to the result file's /continuum group, docs/output.md):
+  !> the ladder, every solved sample, each level's means and the continuum values. Lengths in
+  !> the shape's unit, viscosity 1; mobility about the body's centroid, in the input's axes.
+  type :: continuum_result_t
+    integer :: offsets = 0, moment_fills = 0
+    real(dp) :: time_budget = 0.0_dp, estimated_seconds = 0.0_dp, reference_length = 0.0_dp
+    real(dp), allocatable :: bead_diameters(:)                  ! per level, coarsest first
+    !> The body from the moment fills: volume and its standard error, centroid, the equivalent
+    !> ellipsoid's semi-axes and axes (columns).
+    real(dp) :: volume = 0.0_dp, volume_error = 0.0_dp, centroid(3) = 0.0_dp
+    real(dp) :: semi_axes(3) = 0.0_dp, axes(3, 3) = 0.0_dp
+    !> Per sample: its level, offset (d), beads, Krylov iterations (sum over its solves), 1 when
+    !> every solve converged, largest true relative residual, wall time; its friction as solved
+    !> (36, d units, about its beads' centre of mass) and its corrected mobility (36) and
+    !> coefficients (5).
+    integer, allocatable :: sample_level(:), sample_beads(:), sample_iterations(:), sample_converged(:)
+    real(dp), allocatable :: sample_offset(:, :), sample_residual(:), sample_seconds(:)
+    real(dp), allocatable :: sample_friction(:, :), sample_mobility(:, :), sample_coefficients(:, :)
+    !> Per level (columns): the mean over its offsets and that mean's standard error.
+    real(dp), allocatable :: level_mobility(:, :), level_mobility_error(:, :)
+    real(dp), allocatable :: level_coefficients(:, :), level_coefficient_error(:, :)
+    !> The continuum values with their error bars; the linear and reduced fits' coefficients.
+    real(dp) :: mobility(6, 6) = 0.0_dp, mobility_error(6, 6) = 0.0_dp, friction(6, 6) = 0.0_dp
+    real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
+    real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
+    real(dp) :: coefficient_standard_error(5) = 0.0_dp
+  end type continuum_result_t
 
   !> One quantity's continuum value and the parts of its error bar.
   type :: continuum_value_t

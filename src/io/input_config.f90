@@ -10,13 +10,13 @@ module beadmob_input_config
   use beadmob_friction_settings, only: friction_settings_t
   implicit none
   private
-  public :: default_estimate_order, run_config_t, shape_config_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
+  public :: default_estimate_order, run_config_t, shape_config_t, continuum_settings_t, parse_input_text, effective_input_text, is_set, unset_real, unset_int
   public :: default_output_path, built_in_source
 
   character(len=*), parameter :: default_output_path = 'beadmob_result.h5'
   !> The `source` of a run without an input file.
   character(len=*), parameter :: built_in_source = 'built-in default'
-  character(len=*), parameter :: known_groups(3) = [character(len=14) :: 'run', 'shape', 'hydrodynamics']
+  character(len=*), parameter :: known_groups(4) = [character(len=14) :: 'run', 'shape', 'hydrodynamics', 'continuum']
 
   !> The &shape group: a shape name and the parameters that shape takes (others stay unset).
   type :: shape_config_t
@@ -43,6 +43,21 @@ module beadmob_input_config
     integer :: box_beads(3) = unset_int
   end type shape_config_t
 
+  !> The &continuum group: the body's continuum mobility from a ladder of resolutions, each
+  !> averaged over sub-lattice offsets and extrapolated to zero bead size (driver/continuum_job.F90).
+  type :: continuum_settings_t
+    logical :: enabled = .false.
+    !> Estimated wall time (s) of the whole ladder on this run's ranks: it sets the finest level.
+    real(dp) :: time_budget = 600.0_dp
+    !> Resolutions (bead counts a factor 2 apart), offsets solved per resolution, and the
+    !> geometry-only fills at the finest resolution that measure the body's volume and moments.
+    integer :: levels = 7
+    integer :: offsets = 4
+    integer :: moment_fills = 32
+    !> The finest level's bead diameter (shape units) instead of the budget's choice.
+    real(dp) :: finest_bead_diameter = unset_real
+  end type continuum_settings_t
+
   type :: run_config_t
     !> Input file path, or 'built-in default' when run without one.
     character(len=:), allocatable :: source
@@ -59,6 +74,7 @@ module beadmob_input_config
     !> The &hydrodynamics group: the friction job's settings (its command-line part is filled by
     !> the driver, driver/command_line.F90)
     type(friction_settings_t) :: hydrodynamics
+    type(continuum_settings_t) :: continuum
     !> Command-line switches of the run (driver/command_line.F90): skip the friction job; the
     !> dry run; the ranks it estimates for (0: the run's) and the GiB a rank may use (0: what the
     !> node has); HDF5's own error stack on a failed call
@@ -98,6 +114,8 @@ contains
     if (err%failed) return
     call read_hydrodynamics_group(lines, source, config%hydrodynamics, err)
     if (err%failed) return
+    call read_continuum_group(lines, source, config%continuum, err)
+    if (err%failed) return
     if (.not. found) call raise(err, source // ': no &shape group (say which bead model to build, e.g. &shape name=''cone'' /)')
     ! A relative bead file path is relative to the input file, wherever the run starts.
     if (len_trim(config%shape%file) > 0 .and. config%shape%file(1:1) /= '/' .and. index(source, '/') > 0) &
@@ -106,6 +124,45 @@ contains
     if (.not. (config%overlap_tolerance >= 0.0_dp .and. config%overlap_tolerance < 1.0_dp)) &
       call raise(err, source // ': &run overlap_tolerance must be in [0, 1), got ' // str(config%overlap_tolerance))
   end subroutine parse_input_text
+
+  subroutine read_continuum_group(lines, source, settings, err)
+    character(len=*), intent(in) :: lines(:), source
+    type(continuum_settings_t), intent(inout) :: settings
+    type(error_t), intent(inout) :: err
+    real(dp) :: time_budget, finest_bead_diameter
+    integer :: levels, offsets, moment_fills, status
+    character(len=512) :: message
+    namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter
+
+    settings%enabled = has_group(lines, 'continuum')
+    if (.not. settings%enabled) return
+    time_budget = settings%time_budget
+    levels = settings%levels
+    offsets = settings%offsets
+    moment_fills = settings%moment_fills
+    finest_bead_diameter = settings%finest_bead_diameter
+    read (lines, nml=continuum, iostat=status, iomsg=message)
+    if (status > 0) then
+      call raise(err, namelist_error(lines, source, 'continuum', message))
+      return
+    end if
+    if (.not. (time_budget > 0.0_dp .and. time_budget < huge(1.0_dp))) then
+      call raise(err, source // ': &continuum time_budget must be a positive number of seconds, got ' // str(time_budget))
+    else if (levels < 3 .or. levels > 12) then
+      call raise(err, source // ': &continuum levels must be 3 to 12 (a quadratic in the bead size needs 3), got ' // &
+                 str(levels))
+    else if (offsets < 2 .or. offsets > 64) then
+      call raise(err, source // ': &continuum offsets must be 2 to 64 (a level''s scatter needs 2), got ' // str(offsets))
+    else if (moment_fills < 8 .or. moment_fills > 4096) then
+      call raise(err, source // ': &continuum moment_fills must be 8 to 4096, got ' // str(moment_fills))
+    else if (is_set(finest_bead_diameter) .and. .not. (finest_bead_diameter > 0.0_dp .and. &
+                                                       finest_bead_diameter < huge(1.0_dp))) then
+      call raise(err, source // ': &continuum finest_bead_diameter must be positive, got ' // str(finest_bead_diameter))
+    end if
+    if (err%failed) return
+    settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
+                                    moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter)
+  end subroutine read_continuum_group
 
   subroutine read_run_group(lines, source, config, err)
     character(len=*), intent(in) :: lines(:), source
@@ -450,6 +507,15 @@ contains
       "  motions = '" // trim(config%hydrodynamics%motions_text) // "'" // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file, all_switches) // '/' // &
       new_line('a')
+    if (config%continuum%enabled) then
+      write (line, '(a, es23.16)') '  time_budget = ', config%continuum%time_budget
+      text = text // '&continuum' // new_line('a') // trim(line) // new_line('a') // &
+             '  levels = ' // str(config%continuum%levels) // new_line('a') // &
+             '  offsets = ' // str(config%continuum%offsets) // new_line('a') // &
+             '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a')
+      call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
+      text = text // '/' // new_line('a')
+    end if
   contains
     !> A comment: the settings above are the ones the target chose, and the text stays a valid
     !> input that reruns them (accuracy together with them would be refused).

@@ -19,6 +19,7 @@ module beadmob_result_file
   use beadmob_error_estimate, only: error_estimate_t, entry_factor, block_factor, extrapolation_ratio, &
                                     extrapolated_entry_factor, extrapolated_block_factor
   use beadmob_friction_diagnostics, only: friction_diagnostics_t, condition_threshold, asymmetry_threshold
+  use beadmob_continuum_fit, only: continuum_result_t
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -33,7 +34,7 @@ module beadmob_result_file
 contains
 
   !> Collective. On failure the partial file is removed and `err` holds the same message on all ranks.
-  subroutine write_result_file(ctx, config, model, frame, err, mobility, job_result)
+  subroutine write_result_file(ctx, config, model, frame, err, mobility, job_result, continuum)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(bead_model_t), intent(in) :: model
@@ -41,6 +42,8 @@ contains
     type(error_t), intent(inout) :: err
     type(mobility_result_t), intent(in), optional :: mobility
     type(friction_result_t), intent(in), optional :: job_result
+    !> A continuum job's ladder and values (the geometry is then its finest level's first offset)
+    type(continuum_result_t), intent(in), optional :: continuum
     character(len=:), allocatable :: final_path, partial_path
     integer(hid_t) :: file_id
     integer :: ierr
@@ -55,6 +58,7 @@ contains
     call write_geometry(ctx, file_id, model, frame, err)
     if (present(mobility) .and. present(job_result)) &
       call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, job_result, err)
+    if (present(continuum)) call write_continuum(ctx, file_id, continuum, err)
     call h5_close_file(file_id, err)
     call agree_on_error(ctx, err)
     call MPI_Barrier(ctx%comm, ierr)
@@ -263,6 +267,57 @@ contains
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
+
+  !> The continuum job's group (docs/output.md, docs/theory.md T16).
+  subroutine write_continuum(ctx, file_id, c, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(continuum_result_t), intent(in) :: c
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    call h5_create_group(file_id, 'continuum', group, err)
+    call write_attribute(group, 'method', 'levels of bead diameter a factor 2**(1/3) apart, each the mean over ' // &
+                         'sub-lattice offsets of the order-L friction corrected by the exact friction of the body''s ' // &
+                         'equivalent ellipsoid, extrapolated to zero bead size by a quadratic (docs/theory.md T16)', err)
+    call write_attribute(group, 'units', 'lengths in the shape''s unit, viscosity 1; mobility about the centroid, ' // &
+                         'input axes; coefficients with reference_length', err)
+    call write_attribute(group, 'offsets', c%offsets, err)
+    call write_attribute(group, 'moment_fills', c%moment_fills, err)
+    call write_attribute(group, 'time_budget', c%time_budget, err)
+    call write_attribute(group, 'estimated_seconds', c%estimated_seconds, err)
+    call write_attribute(group, 'reference_length', c%reference_length, err)
+    call write_attribute(group, 'volume', c%volume, err)
+    call write_attribute(group, 'volume_standard_error', c%volume_error, err)
+    call write_attribute(group, 'all_converged', merge(1, 0, all(c%sample_converged == 1)), err)
+    call write_attribute(group, 'coefficient_names', 'mu11 mu22 mu33 mu42 mu51', err)
+    call write_replicated_dataset(ctx, group, 'bead_diameters', c%bead_diameters, err)
+    call write_replicated_dataset(ctx, group, 'centroid', c%centroid, err)
+    call write_replicated_dataset(ctx, group, 'equivalent_semi_axes', c%semi_axes, err)
+    call write_replicated_dataset(ctx, group, 'equivalent_axes', c%axes, err)
+    call write_attribute(group, 'sample_level', c%sample_level, err)
+    call write_attribute(group, 'sample_beads', c%sample_beads, err)
+    call write_attribute(group, 'sample_iterations', c%sample_iterations, err)
+    call write_attribute(group, 'sample_converged', c%sample_converged, err)
+    call write_replicated_dataset(ctx, group, 'sample_offset', c%sample_offset, err)
+    call write_replicated_dataset(ctx, group, 'sample_true_relative_residual', c%sample_residual, err)
+    call write_replicated_dataset(ctx, group, 'sample_seconds', c%sample_seconds, err)
+    call write_replicated_dataset(ctx, group, 'sample_friction', c%sample_friction, err)
+    call write_replicated_dataset(ctx, group, 'sample_mobility', c%sample_mobility, err)
+    call write_replicated_dataset(ctx, group, 'sample_coefficients', c%sample_coefficients, err)
+    call write_replicated_dataset(ctx, group, 'level_mobility', c%level_mobility, err)
+    call write_replicated_dataset(ctx, group, 'level_mobility_error', c%level_mobility_error, err)
+    call write_replicated_dataset(ctx, group, 'level_coefficients', c%level_coefficients, err)
+    call write_replicated_dataset(ctx, group, 'level_coefficient_error', c%level_coefficient_error, err)
+    call write_replicated_dataset(ctx, group, 'mobility', transpose(c%mobility), err)
+    call write_replicated_dataset(ctx, group, 'mobility_error', transpose(c%mobility_error), err)
+    call write_replicated_dataset(ctx, group, 'friction', transpose(c%friction), err)
+    call write_replicated_dataset(ctx, group, 'coefficients', c%coefficients, err)
+    call write_replicated_dataset(ctx, group, 'coefficient_error', c%coefficient_error, err)
+    call write_replicated_dataset(ctx, group, 'coefficient_standard_error', c%coefficient_standard_error, err)
+    call write_replicated_dataset(ctx, group, 'coefficients_linear_fit', c%coefficient_linear, err)
+    call write_replicated_dataset(ctx, group, 'coefficients_without_coarsest', c%coefficient_reduced, err)
+    call h5_close_group(group, err)
+  end subroutine write_continuum
 
   !> The error bar (error_estimate.f90, theory.md T14): the companion of order L - 1, the estimated
   !> error of the mobility and of the coefficients, the values extrapolated in L with theirs.

@@ -1,0 +1,597 @@
+!> The continuum job (&continuum, issue 25 item 3, docs/theory.md T16): the mobility of the body
+!> a shape describes, not of one bead model of it. A ladder of resolutions (bead diameters a
+!> factor 2**(1/3) apart, bead counts a factor 2), chosen from the time budget with the dry
+!> run's estimates; at each, the friction job on `offsets` bead models of the same body on
+!> lattices shifted by sub-lattice offsets; each sample corrected for the volume and shape its
+!> lattice gave the body (the exact friction of the equivalent ellipsoids); the level means
+!> extrapolated to zero bead size (continuum_fit.f90). Every solved sample is kept in a text
+!> checkpoint '<output>.continuum_checkpoint' (rewritten whole and renamed after each), so a
+!> killed job resumes with the samples it has; the result file holds them all.
+module beadmob_continuum_job
+  use mpi, only: MPI_Bcast, MPI_INTEGER, MPI_DOUBLE_PRECISION, MPI_Wtime
+  use beadmob_kinds, only: dp
+  use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: str
+  use beadmob_parallel, only: run_context_t, agree_on_error
+  use beadmob_file_system, only: rename_file, remove_file
+  use beadmob_input_config, only: run_config_t, effective_input_text, is_set
+  use beadmob_checkpoint_file, only: fnv1a_hex
+  use beadmob_bead_model, only: bead_model_t
+  use beadmob_shape_catalog, only: build_bead_model
+  use beadmob_geometry_checks, only: check_bead_model
+  use beadmob_body_frame, only: body_frame_t, compute_body_frame
+  use beadmob_body_moments, only: body_moments_t, moments_of_beads, equivalent_ellipsoid
+  use beadmob_ellipsoid_friction, only: ellipsoid_friction
+  use beadmob_mobility, only: mobility_result_t, compute_mobility
+  use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
+  use beadmob_job_plan, only: job_plan_t
+  use beadmob_friction_job, only: friction_of_plan, friction_result_t
+  use beadmob_result_file, only: write_result_file
+  use beadmob_job_planning, only: plan_friction_job
+  implicit none
+  private
+  public :: run_continuum_job, continuum_checkpoint_suffix
+
+  character(len=*), parameter :: continuum_checkpoint_suffix = '.continuum_checkpoint'
+  character(len=*), parameter :: checkpoint_header = 'beadmob-continuum-checkpoint 1'
+  !> Shapes whose lattice can be shifted against the body and whose size is given in a unit.
+  character(len=*), parameter :: filled_shapes(12) = [character(len=16) :: 'sphere', 'spheroid', 'torus', 'mesh', &
+    'cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring']
+  !> Candidate finest levels: bead_diameter * 2**(j/3), j from ladder_coarsest down to ladder_finest.
+  integer, parameter :: ladder_coarsest = 6, ladder_finest = -15
+  !> A ladder whose coarsest level has fewer beads is too coarse to extrapolate from.
+  integer, parameter :: minimum_coarsest_beads = 250
+  !> Numbers per sample in the checkpoint: see pack_sample.
+  integer, parameter :: sample_numbers = 60
+
+  !> One solved bead model of the ladder (lengths in d unless said otherwise).
+  type :: continuum_sample_t
+    integer :: level = 0, offset_index = 0, beads = 0, iterations = 0, converged = 0
+    real(dp) :: seconds = 0.0_dp, residual = 0.0_dp, bead_diameter = 0.0_dp, offset(3) = 0.0_dp
+    real(dp) :: friction(6, 6) = 0.0_dp          ! about the beads' centre of mass
+    type(body_moments_t) :: moments              ! in the shape's unit
+  end type continuum_sample_t
+
+contains
+
+  !> Collective. The continuum job of config (its &continuum group), result to config%output.
+  subroutine run_continuum_job(ctx, config, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(error_t), intent(inout) :: err
+    type(continuum_sample_t), allocatable :: samples(:)
+    type(continuum_result_t) :: result
+    type(body_moments_t) :: body
+    type(bead_model_t) :: model
+    type(body_frame_t) :: frame
+    real(dp), allocatable :: diameters(:), volumes(:)
+    real(dp) :: estimated_seconds, finest
+    character(len=:), allocatable :: key, checkpoint
+    integer :: level, j, fill
+
+    call check_continuum_input(config, err)
+    if (err%failed) return
+    key = fnv1a_hex(effective_input_text(config, numbers_only=.true.))
+    checkpoint = trim(config%output) // continuum_checkpoint_suffix
+    finest = -1.0_dp
+    allocate (samples(0))
+    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, finest, samples, err)
+    if (err%failed) return
+    call choose_ladder(ctx, config, finest, diameters, estimated_seconds, err)
+    if (err%failed .or. config%dry_run) return
+
+    ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90).
+    allocate (volumes(config%continuum%moment_fills))
+    do fill = 1, config%continuum%moment_fills
+      call build_at(ctx, config, diameters(size(diameters)), fill, model, err)
+      if (err%failed) return
+      call accumulate(body, moments_of_beads(model%centres, diameters(size(diameters))), config%continuum%moment_fills)
+      volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
+    end do
+
+    do level = 1, size(diameters)
+      do j = 1, config%continuum%offsets
+        if (any(samples%level == level .and. samples%offset_index == j)) cycle
+        samples = [samples, solve_sample(level, j)]
+        if (err%failed) return
+        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, diameters(size(diameters)), samples, err)
+        call agree_on_error(ctx, err)
+        if (err%failed) return
+      end do
+    end do
+
+    ! The reference model (finest level, first offset) carries the geometry and the body frame.
+    call build_at(ctx, config, diameters(size(diameters)), 1, model, err)
+    if (err%failed) return
+    call compute_body_frame(model%centres, frame, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    result%reference_length = config%shape%reference_length
+    if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
+    call continuum_values(config, diameters, samples, body, volumes, frame%axes, result, err)
+    if (err%failed) return
+    result%estimated_seconds = estimated_seconds
+    call write_result_file(ctx, config, model, frame, err, continuum=result)
+    if (err%failed) return
+    if (config%checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
+    if (ctx%rank == 0) call print_continuum(config, result)
+
+  contains
+
+    !> Collective. Sample j of level `level`: the friction job with the run's settings (no error
+    !> bar of its own: the ladder's scatter and extrapolation are this job's error bar).
+    function solve_sample(level, j) result(sample)
+      integer, intent(in) :: level, j
+      type(continuum_sample_t) :: sample
+      type(run_config_t) :: sample_config
+      type(bead_model_t) :: sample_model
+      type(body_frame_t) :: sample_frame
+      type(job_plan_t) :: plan
+      type(friction_result_t) :: job_result
+      real(dp) :: start
+      start = MPI_Wtime()
+      sample_config = config
+      call build_at(ctx, config, diameters(level), j, sample_model, err, sample_config)
+      if (err%failed) return
+      call check_bead_model(sample_model, config%overlap_tolerance, err)
+      if (.not. err%failed) call compute_body_frame(sample_model%centres, sample_frame, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      associate (job => sample_config%hydrodynamics)
+        job%error_estimate = .false.
+        job%progress = .false.
+        job%checkpoint_file = ''
+        call plan_friction_job(ctx, sample_config, sample_model%centres, plan, err)
+        if (err%failed) return
+        job%shell_layers = plan%shell_layers
+        call friction_of_plan(ctx, job, plan, job_result, err)
+        if (err%failed) return
+      end associate
+      sample%level = level
+      sample%offset_index = j
+      sample%beads = size(sample_model%centres, 2)
+      sample%bead_diameter = diameters(level)
+      sample%offset = sample_config%shape%lattice_offset
+      sample%friction = job_result%friction
+      sample%moments = moments_of_beads(sample_model%centres, diameters(level))
+      sample%iterations = sum(max(job_result%solves%iterations, 0))
+      sample%converged = merge(1, 0, all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0))
+      sample%residual = maxval(job_result%solves%true_relative_residual)
+      sample%seconds = MPI_Wtime() - start
+      if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
+        'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', diameters(level), ', ', &
+        sample%iterations, ' iterations, ', sample%seconds, ' s'
+    end function solve_sample
+  end subroutine run_continuum_job
+
+  !> What a continuum job needs of its input (the same on every rank: no collective needed).
+  subroutine check_continuum_input(config, err)
+    type(run_config_t), intent(in) :: config
+    type(error_t), intent(inout) :: err
+    if (.not. config%hydrodynamics%enabled) then
+      call raise(err, '&continuum extrapolates the friction job: the input needs a &hydrodynamics group ' // &
+                 '(and no -geometry_only)')
+    else if (config%hydrodynamics%accuracy > 0.0_dp) then
+      call raise(err, '&continuum chooses its own resolutions: an accuracy target (accuracy, -accuracy) does not apply')
+    else if (.not. all(config%hydrodynamics%motions)) then
+      call raise(err, '&continuum needs all six motions (motions = ''all'')')
+    else if (.not. any(filled_shapes == config%shape%name)) then
+      call raise(err, "&continuum needs a shape that fills a body on the lattice, not '" // trim(config%shape%name) // &
+                 "' (one of sphere, spheroid, torus, mesh and the paper's shapes)")
+    else if (.not. is_set(config%shape%bead_diameter)) then
+      call raise(err, '&continuum needs the shape in its own unit with &shape bead_diameter: the resolution of one ' // &
+                 'ordinary run, around which the ladder is chosen')
+    else if (any(config%shape%lattice_offset /= 0.0_dp)) then
+      call raise(err, '&continuum chooses the lattice offsets itself: leave &shape lattice_offset out')
+    end if
+  end subroutine check_continuum_input
+
+  !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
+  !> (Halton sequence in bases 2, 3, 5: well spread over the unit cell); `used` gets the config.
+  subroutine build_at(ctx, config, d, j, model, err, used)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    real(dp), intent(in) :: d
+    integer, intent(in) :: j
+    type(bead_model_t), intent(out) :: model
+    type(error_t), intent(inout) :: err
+    type(run_config_t), intent(inout), optional :: used
+    type(run_config_t) :: c
+    c = config
+    c%shape%bead_diameter = d
+    c%shape%lattice_offset = [halton(j, 2), halton(j, 3), halton(j, 5)]
+    call build_bead_model(ctx, c%shape, model, err)
+    call agree_on_error(ctx, err)
+    if (.not. err%failed .and. size(model%centres, 2) < 2) &
+      call raise(err, '&continuum: ' // str(size(model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
+                 ': the shape is too small for this resolution')
+    if (present(used)) used = c
+  end subroutine build_at
+
+  !> Collective. The bead diameters of the levels, coarsest first: from finest_bead_diameter, from
+  !> a checkpoint's ladder (finest > 0), or the finest ladder whose estimated time fits the
+  !> budget. A dry run prints the ladder.
+  subroutine choose_ladder(ctx, config, finest, diameters, estimated_seconds, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    real(dp), intent(in) :: finest
+    real(dp), allocatable, intent(out) :: diameters(:)
+    real(dp), intent(out) :: estimated_seconds
+    type(error_t), intent(inout) :: err
+    real(dp) :: seconds(ladder_finest:ladder_coarsest + 12), total, base
+    integer :: beads(ladder_finest:ladder_coarsest + 12), j, k, chosen, levels
+    type(error_t) :: refused
+
+    levels = config%continuum%levels
+    base = config%shape%bead_diameter
+    seconds = -1.0_dp
+    beads = -1
+    chosen = huge(1)
+    if (finest > 0.0_dp .or. is_set(config%continuum%finest_bead_diameter)) then
+      diameters = ladder(merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp))
+      estimated_seconds = 0.0_dp
+      do k = 1, levels
+        total = estimate(diameters(k))
+        if (err%failed) return
+        estimated_seconds = estimated_seconds + config%continuum%offsets * total
+      end do
+    else
+      do j = ladder_coarsest, ladder_finest, -1
+        total = 0.0_dp
+        do k = j, j + levels - 1
+          if (seconds(k) < 0.0_dp) seconds(k) = estimate(base * 2.0_dp**(k / 3.0_dp), beads(k))
+          if (err%failed) return
+          if (refused%failed) exit
+          total = total + config%continuum%offsets * seconds(k)
+        end do
+        if (refused%failed .or. total > config%continuum%time_budget) exit
+        if (beads(j + levels - 1) >= minimum_coarsest_beads) then
+          chosen = j
+          estimated_seconds = total
+        end if
+      end do
+      if (chosen == huge(1)) then
+        call raise(err, '&continuum: no ladder of ' // str(levels) // ' levels with at least ' // &
+                   str(minimum_coarsest_beads) // ' beads on the coarsest fits the time budget of ' // &
+                   str(config%continuum%time_budget) // ' s' // either(refused%failed, ' (or memory: ' // &
+                   trim(refused%message) // ')', '') // '; raise time_budget, or give finest_bead_diameter')
+        return
+      end if
+      diameters = ladder(base * 2.0_dp**(chosen / 3.0_dp))
+    end if
+    if (ctx%rank == 0 .and. (config%dry_run .or. config%progress)) then
+      write (*, '(a)') 'beadmob: continuum ladder of ' // str(levels) // ' levels x ' // str(config%continuum%offsets) // &
+        ' offsets, bead diameters (coarsest first):'
+      write (*, '(4x, *(es11.4))') diameters
+      write (*, '(a, f0.0, a, f0.0, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
+        config%continuum%time_budget, ' s)'
+    end if
+
+  contains
+
+    function ladder(smallest) result(values)
+      real(dp), intent(in) :: smallest
+      real(dp) :: values(levels)
+      integer :: i
+      values = [(smallest * 2.0_dp**((levels - i) / 3.0_dp), i = 1, levels)]
+    end function ladder
+
+    !> The dry run's estimate of one sample at bead diameter d (n: its beads; a model too coarse
+    !> for a level gives 0 s); a plan refused for memory sets `refused` and gives 0.
+    real(dp) function estimate(d, n)
+      real(dp), intent(in) :: d
+      integer, intent(out), optional :: n
+      type(run_config_t) :: c
+      type(bead_model_t) :: model
+      type(job_plan_t) :: plan
+      c = config
+      c%dry_run = .false.
+      c%hydrodynamics%error_estimate = .false.
+      c%hydrodynamics%progress = .false.
+      c%shape%bead_diameter = d
+      ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
+      c%shape%lattice_offset = [halton(1, 2), halton(1, 3), halton(1, 5)]
+      estimate = 0.0_dp
+      call build_bead_model(ctx, c%shape, model, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      if (present(n)) n = size(model%centres, 2)
+      if (size(model%centres, 2) < minimum_coarsest_beads) return   ! too coarse for a level: no plan needed
+      call plan_friction_job(ctx, c, model%centres, plan, refused)
+      if (.not. refused%failed) estimate = plan%estimate%seconds_total
+    end function estimate
+  end subroutine choose_ladder
+
+  !> The corrected samples, the level means and the extrapolation (docs/theory.md T16).
+  subroutine continuum_values(config, diameters, samples, body, volumes, axes, result, err)
+    type(run_config_t), intent(in) :: config
+    real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3)
+    type(continuum_sample_t), intent(in) :: samples(:)
+    type(body_moments_t), intent(in) :: body
+    type(continuum_result_t), intent(inout) :: result
+    type(error_t), intent(inout) :: err
+    type(mobility_result_t) :: mobility
+    type(continuum_value_t) :: fit
+    real(dp) :: friction(6, 6), true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
+    real(dp) :: relative_volume_error, volume_power(41)
+    integer :: s, k, q, n, levels, row, column
+    integer, allocatable :: members(:)
+
+    n = size(samples)
+    levels = size(diameters)
+    result%offsets = config%continuum%offsets
+    result%moment_fills = config%continuum%moment_fills
+    result%time_budget = config%continuum%time_budget
+    result%bead_diameters = diameters
+    result%volume = body%volume
+    call level_mean(volumes, mean, volume_spread)
+    result%volume_error = volume_spread
+    relative_volume_error = volume_spread / body%volume
+    result%centroid = body%centroid()
+    call equivalent_ellipsoid(body, 0.0_dp, result%semi_axes, result%axes, err)
+    if (err%failed) return
+    allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
+    allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n))
+    allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
+    do s = 1, n
+      associate (p => samples(s), d => samples(s)%bead_diameter)
+        result%sample_level(s) = p%level
+        result%sample_beads(s) = p%beads
+        result%sample_iterations(s) = p%iterations
+        result%sample_converged(s) = p%converged
+        result%sample_offset(:, s) = p%offset
+        result%sample_residual(s) = p%residual
+        result%sample_seconds(s) = p%seconds
+        result%sample_friction(:, s) = reshape(p%friction, [36])
+        ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
+        scale = [d, d, d, d**2, d**2, d**2]
+        friction = p%friction * spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
+        ! The lattice's volume and shape of the body at this offset against the body's own: the
+        ! difference of the equivalent ellipsoids' exact frictions (both with a cell's d^2 / 12).
+        call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
+        if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
+        if (err%failed) return
+        friction = friction + ellipsoid_friction(true_semi, true_axes) - ellipsoid_friction(sample_semi, sample_axes)
+        friction = 0.5_dp * (friction + transpose(friction))
+        call compute_mobility(friction, result%centroid, axes, result%reference_length, mobility, err)
+        if (err%failed) return
+        result%sample_mobility(:, s) = reshape(mobility%mobility, [36])
+        result%sample_coefficients(:, s) = mobility%coefficients
+      end associate
+    end do
+
+    ! Level means and the fit; the volume's uncertainty scales mobility entries as length^-p.
+    allocate (result%level_mobility(36, levels), result%level_mobility_error(36, levels))
+    allocate (result%level_coefficients(5, levels), result%level_coefficient_error(5, levels))
+    ! A mobility entry scales as length^-p with the body: p = 1 (tt), 2 (tr, rt), 3 (rr);
+    ! mu11 mu22 mu33 are tt, mu42 mu51 rt.
+    do q = 1, 36
+      row = modulo(q - 1, 6) + 1
+      column = (q - row) / 6 + 1
+      volume_power(q) = 1 + merge(1, 0, row > 3) + merge(1, 0, column > 3)
+    end do
+    volume_power(37:41) = [1, 1, 1, 2, 2]
+    do k = 1, levels
+      members = pack([(s, s = 1, n)], result%sample_level == k)
+      do q = 1, 36
+        call level_mean(result%sample_mobility(q, members), result%level_mobility(q, k), result%level_mobility_error(q, k))
+      end do
+      do q = 1, 5
+        call level_mean(result%sample_coefficients(q, members), result%level_coefficients(q, k), &
+                        result%level_coefficient_error(q, k))
+      end do
+    end do
+    do q = 1, 36
+      row = modulo(q - 1, 6) + 1
+      column = (q - row) / 6 + 1
+      fit = extrapolate_to_zero(diameters, result%level_mobility(q, :), result%level_mobility_error(q, :), 0.0_dp)
+      result%mobility(row, column) = fit%value
+      result%mobility_error(row, column) = fit%error + abs(fit%value) * volume_power(q) / 3.0_dp * relative_volume_error
+    end do
+    do q = 1, 5
+      fit = extrapolate_to_zero(diameters, result%level_coefficients(q, :), result%level_coefficient_error(q, :), 0.0_dp)
+      result%coefficients(q) = fit%value
+      result%coefficient_error(q) = fit%error + abs(fit%value) * volume_power(36 + q) / 3.0_dp * relative_volume_error
+      result%coefficient_standard_error(q) = fit%standard_error
+      result%coefficient_linear(q) = fit%linear_value
+      result%coefficient_reduced(q) = fit%reduced_value
+    end do
+    result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))
+    call invert_mobility(result%mobility, result%friction, err)
+  end subroutine continuum_values
+
+  !> The continuum friction: the inverse of the continuum mobility (Gauss-Jordan, 6 x 6).
+  subroutine invert_mobility(mobility, friction, err)
+    real(dp), intent(in) :: mobility(6, 6)
+    real(dp), intent(out) :: friction(6, 6)
+    type(error_t), intent(inout) :: err
+    real(dp) :: work(6, 12), pivot
+    integer :: i, k
+    work = 0.0_dp
+    work(:, 1:6) = mobility
+    do i = 1, 6
+      work(i, 6 + i) = 1.0_dp
+    end do
+    friction = 0.0_dp
+    do i = 1, 6
+      pivot = work(i, i)
+      if (.not. (abs(pivot) > 0.0_dp)) then
+        call raise(err, '&continuum: the extrapolated mobility is singular')
+        return
+      end if
+      work(i, :) = work(i, :) / pivot
+      do k = 1, 6
+        if (k /= i) work(k, :) = work(k, :) - work(k, i) * work(i, :)
+      end do
+    end do
+    friction = work(:, 7:12)
+  end subroutine invert_mobility
+
+  !> Running mean of the moment fills.
+  subroutine accumulate(total, one, fills)
+    type(body_moments_t), intent(inout) :: total
+    type(body_moments_t), intent(in) :: one
+    integer, intent(in) :: fills
+    total%volume = total%volume + one%volume / fills
+    total%first = total%first + one%first / fills
+    total%second = total%second + one%second / fills
+  end subroutine accumulate
+
+  subroutine print_continuum(config, c)
+    type(run_config_t), intent(in) :: config
+    type(continuum_result_t), intent(in) :: c
+    integer :: k
+    write (*, '(a)') 'beadmob: continuum of shape ' // trim(config%shape%name) // ': ' // str(size(c%bead_diameters)) // &
+      ' levels x ' // str(c%offsets) // ' offsets, ' // str(sum(c%sample_beads)) // ' beads solved in all'
+    write (*, '(a, es12.5, a, es9.2, a)') '  volume ', c%volume, ' (+-', c%volume_error, '), equivalent ellipsoid'
+    write (*, '(4x, 3es12.4)') c%semi_axes
+    write (*, '(a)') '  level  bead diameter     mu11      mu22      mu33      mu42      mu51'
+    do k = 1, size(c%bead_diameters)
+      write (*, '(i7, es15.4, 5f10.5)') k, c%bead_diameters(k), c%level_coefficients(:, k)
+    end do
+    write (*, '(a, 5f10.5)') '  continuum (d -> 0):   ', c%coefficients
+    write (*, '(a, 5f10.5)') '  its error (+-):       ', c%coefficient_error
+    write (*, '(a)') '  result written to ' // trim(config%output) // ' (/continuum)'
+    if (any(c%sample_converged == 0)) write (*, '(a)') 'beadmob: warning: not every Krylov solve of the ladder ' // &
+      'converged; the result file flags it: /continuum all_converged = 0'
+  end subroutine print_continuum
+
+  !> The samples of a checkpoint whose key is the run's (rank 0 reads, all ranks get them); a
+  !> checkpoint of another input is ignored with a note, a damaged one is an error.
+  subroutine read_checkpoint(ctx, path, key, finest, samples, err)
+    type(run_context_t), intent(in) :: ctx
+    character(len=*), intent(in) :: path, key
+    real(dp), intent(out) :: finest
+    type(continuum_sample_t), allocatable, intent(inout) :: samples(:)
+    type(error_t), intent(inout) :: err
+    real(dp), allocatable :: numbers(:, :)
+    character(len=256) :: header
+    character(len=16) :: found_key
+    logical :: exists
+    integer :: unit, status, n, s, ierr
+    real(dp) :: values(sample_numbers)
+    n = 0
+    finest = -1.0_dp
+    allocate (numbers(sample_numbers, 0))
+    if (ctx%rank == 0) then
+      inquire (file=path, exist=exists)
+      if (exists) call read_samples()
+      n = size(numbers, 2)
+    end if
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call MPI_Bcast(n, 1, MPI_INTEGER, 0, ctx%comm, ierr)
+    call MPI_Bcast(finest, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+    if (ctx%rank /= 0) then
+      deallocate (numbers)
+      allocate (numbers(sample_numbers, n))
+    end if
+    if (n > 0) call MPI_Bcast(numbers, sample_numbers * n, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+    samples = [(unpack_sample(numbers(:, s)), s = 1, n)]
+
+  contains
+
+    subroutine read_samples()
+      open (newunit=unit, file=path, status='old', action='read', iostat=status)
+      if (status /= 0) then
+        call raise(err, "cannot open the continuum checkpoint '" // path // "'")
+        return
+      end if
+      read (unit, '(a)', iostat=status) header
+      if (status /= 0 .or. index(header, checkpoint_header) /= 1) then
+        call raise(err, "continuum checkpoint '" // path // "' is not one (delete it to start over)")
+      else
+        read (header(len(checkpoint_header) + 2:), *, iostat=status) found_key, finest
+        if (status /= 0 .or. found_key /= key) then
+          write (*, '(a)') 'beadmob: continuum: ' // path // ' is of another input; starting over'
+          finest = -1.0_dp
+        else
+          do
+            read (unit, *, iostat=status) values
+            if (status /= 0) exit
+            numbers = reshape([numbers, values], [sample_numbers, size(numbers, 2) + 1])
+          end do
+          if (.not. is_iostat_end(status)) then
+            call raise(err, "continuum checkpoint '" // path // "' line " // str(size(numbers, 2) + 2) // &
+                       ': not a sample (delete the file to start over)')
+          else
+            write (*, '(a)') 'beadmob: continuum: resuming with ' // str(size(numbers, 2)) // ' samples of ' // path
+          end if
+        end if
+      end if
+      close (unit)
+    end subroutine read_samples
+  end subroutine read_checkpoint
+
+  !> Rank 0: every sample so far to '<path>.tmp', renamed over the checkpoint (a kill while
+  !> writing leaves the previous one whole).
+  subroutine write_checkpoint(path, key, finest, samples, err)
+    character(len=*), intent(in) :: path, key
+    real(dp), intent(in) :: finest
+    type(continuum_sample_t), intent(in) :: samples(:)
+    type(error_t), intent(inout) :: err
+    integer :: unit, status, s
+    open (newunit=unit, file=path // '.tmp', status='replace', action='write', iostat=status)
+    if (status == 0) write (unit, '(a, 1x, a, 1x, es25.17e3)', iostat=status) checkpoint_header, key, finest
+    do s = 1, size(samples)
+      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s))
+    end do
+    if (status == 0) close (unit, iostat=status)
+    if (status /= 0 .or. .not. rename_file(path // '.tmp', path)) &
+      call raise(err, "cannot write the continuum checkpoint '" // path // "' (&run checkpoint = .false. runs without one)")
+  end subroutine write_checkpoint
+
+  !> level, offset index, beads, iterations, converged, seconds, residual, d, offset(3),
+  !> friction(36), volume, first(3), second(9): 60 numbers.
+  pure function pack_sample(p) result(values)
+    type(continuum_sample_t), intent(in) :: p
+    real(dp) :: values(sample_numbers)
+    values = [real(p%level, dp), real(p%offset_index, dp), real(p%beads, dp), real(p%iterations, dp), &
+              real(p%converged, dp), p%seconds, p%residual, p%bead_diameter, p%offset, reshape(p%friction, [36]), &
+              p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
+  end function pack_sample
+
+  pure function unpack_sample(values) result(p)
+    real(dp), intent(in) :: values(sample_numbers)
+    type(continuum_sample_t) :: p
+    p%level = nint(values(1))
+    p%offset_index = nint(values(2))
+    p%beads = nint(values(3))
+    p%iterations = nint(values(4))
+    p%converged = nint(values(5))
+    p%seconds = values(6)
+    p%residual = values(7)
+    p%bead_diameter = values(8)
+    p%offset = values(9:11)
+    p%friction = reshape(values(12:47), [6, 6])
+    p%moments%volume = values(48)
+    p%moments%first = values(49:51)
+    p%moments%second = reshape(values(52:60), [3, 3])
+  end function unpack_sample
+
+  !> Element `index` of the van der Corput sequence in `base` (one coordinate of Halton's).
+  pure real(dp) function halton(index, base)
+    integer, intent(in) :: index, base
+    real(dp) :: f
+    integer :: i
+    halton = 0.0_dp
+    f = 1.0_dp
+    i = index
+    do while (i > 0)
+      f = f / base
+      halton = halton + f * modulo(i, base)
+      i = i / base
+    end do
+  end function halton
+
+  pure function either(condition, yes, no) result(text)
+    logical, intent(in) :: condition
+    character(len=*), intent(in) :: yes, no
+    character(len=:), allocatable :: text
+    if (condition) then
+      text = yes
+    else
+      text = no
+    end if
+  end function either
+end module beadmob_continuum_job
