@@ -41,6 +41,8 @@ module beadmob_continuum_job
   integer, parameter :: ladder_coarsest = 6, ladder_finest = -15
   !> A ladder whose coarsest level has fewer beads is too coarse to extrapolate from.
   integer, parameter :: minimum_coarsest_beads = 250
+  !> The pilot solve that calibrates the time estimates has about this many beads.
+  integer, parameter :: pilot_beads = 1000
   !> Numbers per sample in the checkpoint: see pack_sample.
   integer, parameter :: sample_numbers = 60
 
@@ -65,7 +67,10 @@ contains
     type(bead_model_t) :: model
     type(body_frame_t) :: frame
     real(dp), allocatable :: diameters(:), volumes(:)
-    real(dp) :: estimated_seconds, finest
+    real(dp) :: estimated_seconds, finest, calibration, pilot_d, estimate
+    type(continuum_sample_t) :: pilot
+    type(error_t) :: refused
+    logical :: budget_chooses
     character(len=:), allocatable :: key, checkpoint
     integer :: level, j, fill
 
@@ -77,8 +82,29 @@ contains
     allocate (samples(0))
     if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, finest, samples, err)
     if (err%failed) return
-    call choose_ladder(ctx, config, finest, diameters, estimated_seconds, err)
+    ! The dry run's time estimates, calibrated by one pilot sample (a level of about
+    ! pilot_beads beads) when the budget chooses the ladder; the pilot is kept when on it.
+    calibration = 1.0_dp
+    budget_chooses = finest <= 0.0_dp .and. .not. is_set(config%continuum%finest_bead_diameter)
+    if (budget_chooses .and. .not. config%dry_run) then
+      call pilot_diameter(ctx, config, pilot_d, err)
+      if (err%failed) return
+      pilot = solve_sample(0, 1, pilot_d)
+      if (err%failed) return
+      call sample_estimate(ctx, config, pilot_d, estimate, refused, err)
+      if (err%failed) return
+      if (estimate > 0.0_dp) calibration = max(1.0_dp, pilot%seconds / estimate)
+    end if
+    call choose_ladder(ctx, config, finest, calibration, diameters, estimated_seconds, err)
     if (err%failed .or. config%dry_run) return
+    if (pilot%level == 0 .and. pilot%beads > 0) then
+      do level = 1, size(diameters)
+        if (abs(diameters(level) - pilot_d) <= 1.0e-9_dp * pilot_d) then
+          pilot%level = level
+          samples = [samples, pilot]
+        end if
+      end do
+    end if
 
     ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90).
     allocate (volumes(config%continuum%moment_fills))
@@ -92,7 +118,7 @@ contains
     do level = 1, size(diameters)
       do j = 1, config%continuum%offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
-        samples = [samples, solve_sample(level, j)]
+        samples = [samples, solve_sample(level, j, diameters(level))]
         if (err%failed) return
         if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, diameters(size(diameters)), samples, err)
         call agree_on_error(ctx, err)
@@ -118,10 +144,11 @@ contains
 
   contains
 
-    !> Collective. Sample j of level `level`: the friction job with the run's settings (no error
-    !> bar of its own: the ladder's scatter and extrapolation are this job's error bar).
-    function solve_sample(level, j) result(sample)
+    !> Collective. Sample j of level `level` (bead diameter d): the friction job with the run's
+    !> settings (no error bar of its own: the ladder's scatter and extrapolation are this job's).
+    function solve_sample(level, j, d) result(sample)
       integer, intent(in) :: level, j
+      real(dp), intent(in) :: d
       type(continuum_sample_t) :: sample
       type(run_config_t) :: sample_config
       type(bead_model_t) :: sample_model
@@ -131,7 +158,7 @@ contains
       real(dp) :: start
       start = MPI_Wtime()
       sample_config = config
-      call build_at(ctx, config, diameters(level), j, sample_model, err, sample_config)
+      call build_at(ctx, config, d, j, sample_model, err, sample_config)
       if (err%failed) return
       call check_bead_model(sample_model, config%overlap_tolerance, err)
       if (.not. err%failed) call compute_body_frame(sample_model%centres, sample_frame, err)
@@ -150,16 +177,16 @@ contains
       sample%level = level
       sample%offset_index = j
       sample%beads = size(sample_model%centres, 2)
-      sample%bead_diameter = diameters(level)
+      sample%bead_diameter = d
       sample%offset = sample_config%shape%lattice_offset
       sample%friction = job_result%friction
-      sample%moments = moments_of_beads(sample_model%centres, diameters(level))
+      sample%moments = moments_of_beads(sample_model%centres, d)
       sample%iterations = sum(max(job_result%solves%iterations, 0))
       sample%converged = merge(1, 0, all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0))
       sample%residual = maxval(job_result%solves%true_relative_residual)
       sample%seconds = MPI_Wtime() - start
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
-        'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', diameters(level), ', ', &
+        'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
         sample%iterations, ' iterations, ', sample%seconds, ' s'
     end function solve_sample
   end subroutine run_continuum_job
@@ -211,10 +238,10 @@ contains
   !> Collective. The bead diameters of the levels, coarsest first: from finest_bead_diameter, from
   !> a checkpoint's ladder (finest > 0), or the finest ladder whose estimated time fits the
   !> budget. A dry run prints the ladder.
-  subroutine choose_ladder(ctx, config, finest, diameters, estimated_seconds, err)
+  subroutine choose_ladder(ctx, config, finest, calibration, diameters, estimated_seconds, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
-    real(dp), intent(in) :: finest
+    real(dp), intent(in) :: finest, calibration
     real(dp), allocatable, intent(out) :: diameters(:)
     real(dp), intent(out) :: estimated_seconds
     type(error_t), intent(inout) :: err
@@ -231,7 +258,7 @@ contains
       diameters = ladder(merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp))
       estimated_seconds = 0.0_dp
       do k = 1, levels
-        total = estimate(diameters(k))
+        call sample_estimate(ctx, config, diameters(k), total, refused, err)
         if (err%failed) return
         estimated_seconds = estimated_seconds + config%continuum%offsets * total
       end do
@@ -239,7 +266,10 @@ contains
       do j = ladder_coarsest, ladder_finest, -1
         total = 0.0_dp
         do k = j, j + levels - 1
-          if (seconds(k) < 0.0_dp) seconds(k) = estimate(base * 2.0_dp**(k / 3.0_dp), beads(k))
+          if (seconds(k) < 0.0_dp) then
+            call sample_estimate(ctx, config, base * 2.0_dp**(k / 3.0_dp), seconds(k), refused, err, beads(k))
+            seconds(k) = calibration * seconds(k)
+          end if
           if (err%failed) return
           if (refused%failed) exit
           total = total + config%continuum%offsets * seconds(k)
@@ -263,8 +293,9 @@ contains
       write (*, '(a)') 'beadmob: continuum ladder of ' // str(levels) // ' levels x ' // str(config%continuum%offsets) // &
         ' offsets, bead diameters (coarsest first):'
       write (*, '(4x, *(es11.4))') diameters
-      write (*, '(a, f0.0, a, f0.0, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
-        config%continuum%time_budget, ' s)'
+      write (*, '(a, f0.0, a, f0.0, a, f0.2, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
+        config%continuum%time_budget, ' s; the dry run''s estimates times ', calibration, &
+        either(calibration /= 1.0_dp, ', from a pilot solve)', ')')
     end if
 
   contains
@@ -276,31 +307,53 @@ contains
       values = [(smallest * 2.0_dp**((levels - i) / 3.0_dp), i = 1, levels)]
     end function ladder
 
-    !> The dry run's estimate of one sample at bead diameter d (n: its beads; a model too coarse
-    !> for a level gives 0 s); a plan refused for memory sets `refused` and gives 0.
-    real(dp) function estimate(d, n)
-      real(dp), intent(in) :: d
-      integer, intent(out), optional :: n
-      type(run_config_t) :: c
-      type(bead_model_t) :: model
-      type(job_plan_t) :: plan
-      c = config
-      c%dry_run = .false.
-      c%hydrodynamics%error_estimate = .false.
-      c%hydrodynamics%progress = .false.
-      c%shape%bead_diameter = d
-      ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-      c%shape%lattice_offset = [halton(1, 2), halton(1, 3), halton(1, 5)]
-      estimate = 0.0_dp
-      call build_bead_model(ctx, c%shape, model, err)
-      call agree_on_error(ctx, err)
-      if (err%failed) return
-      if (present(n)) n = size(model%centres, 2)
-      if (size(model%centres, 2) < minimum_coarsest_beads) return   ! too coarse for a level: no plan needed
-      call plan_friction_job(ctx, c, model%centres, plan, refused)
-      if (.not. refused%failed) estimate = plan%estimate%seconds_total
-    end function estimate
   end subroutine choose_ladder
+
+  !> Collective. The dry run's estimate (s) of one sample at bead diameter d (n: its beads; a
+  !> model too coarse for a level gives 0 s); a plan refused for memory sets `refused`, 0 s.
+  subroutine sample_estimate(ctx, config, d, seconds, refused, err, n)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    real(dp), intent(in) :: d
+    real(dp), intent(out) :: seconds
+    type(error_t), intent(inout) :: refused, err
+    integer, intent(out), optional :: n
+    type(run_config_t) :: c
+    type(bead_model_t) :: model
+    type(job_plan_t) :: plan
+    c = config
+    c%dry_run = .false.
+    c%hydrodynamics%error_estimate = .false.
+    c%hydrodynamics%progress = .false.
+    c%shape%bead_diameter = d
+    ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
+    c%shape%lattice_offset = [halton(1, 2), halton(1, 3), halton(1, 5)]
+    seconds = 0.0_dp
+    call build_bead_model(ctx, c%shape, model, err)
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    if (present(n)) n = size(model%centres, 2)
+    if (size(model%centres, 2) < minimum_coarsest_beads) return   ! too coarse for a level: no plan needed
+    call plan_friction_job(ctx, c, model%centres, plan, refused)
+    if (.not. refused%failed) seconds = plan%estimate%seconds_total
+  end subroutine sample_estimate
+
+  !> Collective. The pilot's bead diameter: the coarsest of the candidate levels with at least
+  !> pilot_beads beads (a second or so of solving).
+  subroutine pilot_diameter(ctx, config, d, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    real(dp), intent(out) :: d
+    type(error_t), intent(inout) :: err
+    type(bead_model_t) :: model
+    integer :: m
+    do m = ladder_coarsest, ladder_finest, -1
+      d = config%shape%bead_diameter * 2.0_dp**(m / 3.0_dp)
+      call build_at(ctx, config, d, 1, model, err)
+      if (err%failed) return
+      if (size(model%centres, 2) >= pilot_beads) return
+    end do
+  end subroutine pilot_diameter
 
   !> The corrected samples, the level means and the extrapolation (docs/theory.md T16).
   subroutine continuum_values(config, diameters, samples, body, volumes, axes, result, err)

@@ -1,0 +1,150 @@
+#!/usr/bin/env python3
+"""check_continuum.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job (&continuum, issue 25 item 3;
+src/driver/continuum_job.f90, docs/theory.md T16), end to end.
+
+1. A sphere of radius 1 (bead_diameter 0.25, four levels down to d = 0.125, two offsets each):
+   the continuum translational and rotational mobility must hold the exact sphere's
+   (Stokes: 1 / (6 pi a), 1 / (8 pi a^3)) within the job's own error bar; the ladder's bead
+   diameters are a factor 2**(1/3) apart; every sample is kept (levels x offsets), every solve
+   converged; the continuum friction is the inverse of the continuum mobility; the volume from the
+   moment fills is 4 pi / 3 within its standard error (4x).
+2. Killed while it runs (SIGKILL once the checkpoint holds three samples): no result file; the
+   rerun says it resumes with those samples and gives the uninterrupted run's continuum values
+   within 1e-3 of their error bars (the resumed samples are read back to the last bit, the others
+   solved again to the Krylov tolerance), and leaves no checkpoint.
+3. A checkpoint of another input is not used ("starting over").
+4. Refused with a message and a non-zero exit: a bead file (not a filled shape), no bead_diameter,
+   levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits.
+5. --estimate prints the ladder and writes nothing."""
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+failures = []
+SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
+LADDER = "&continuum levels = 4, offsets = 2, finest_bead_diameter = 0.125 /\n"
+
+
+def check(condition, message):
+    print(("ok:     " if condition else "FAILED: ") + message)
+    if not condition:
+        failures.append(message)
+
+
+def write_input(workdir, name, output, body):
+    path = Path(workdir) / name
+    path.write_text(f"&run output = '{output}' /\n" + body)
+    return path
+
+
+def run(beadmob, mpiexec, ranks, workdir, nml, *options):
+    return subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), *options], cwd=workdir,
+                          capture_output=True, text=True)
+
+
+def continuum(path):
+    with h5py.File(path, "r") as f:
+        c = f["continuum"]
+        return {name: c[name][()] for name in c} | dict(c.attrs)
+
+
+def main(beadmob, mpiexec, ranks, workdir):
+    os.makedirs(workdir, exist_ok=True)
+    # 1. The sphere against Stokes.
+    nml = write_input(workdir, "sphere.nml", "sphere.h5", SPHERE + LADDER)
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    if done.returncode != 0:
+        sys.exit(f"the continuum job failed:\n{done.stdout}\n{done.stderr}")
+    c = continuum(Path(workdir) / "sphere.h5")
+    exact = np.array([1 / (6 * math.pi)] * 3 + [1 / (8 * math.pi)] * 3)
+    deviation = np.abs(np.diag(c["mobility"]) - exact)
+    check(np.all(deviation <= np.diag(c["mobility_error"])),
+          f"sphere: |continuum - Stokes| {deviation / exact} within the error bar {np.diag(c['mobility_error']) / exact}")
+    check(np.all(np.diag(c["mobility_error"]) / exact < [0.05] * 3 + [0.15] * 3),
+          "sphere: the error bar is of the ladder's size (< 5 % translation, 15 % rotation at d >= 0.125)")
+    ratios = c["bead_diameters"][:-1] / c["bead_diameters"][1:]
+    check(np.allclose(ratios, 2 ** (1 / 3), rtol=1e-12) and abs(c["bead_diameters"][-1] - 0.125) < 1e-15,
+          f"ladder: bead diameters {c['bead_diameters']} a factor 2**(1/3) apart down to 0.125")
+    check(len(c["sample_level"]) == 8 and sorted(c["sample_level"]) == [1, 1, 2, 2, 3, 3, 4, 4],
+          f"every sample kept: levels {c['sample_level']}")
+    check(c["all_converged"] == 1 and np.all(c["sample_converged"] == 1), "every solve converged")
+    check(np.allclose(c["friction"] @ c["mobility"], np.eye(6), atol=1e-10), "continuum friction = mobility^-1")
+    check(abs(c["volume"] - 4 * math.pi / 3) <= 4 * c["volume_standard_error"],
+          f"volume {c['volume']} = 4 pi / 3 within 4 standard errors ({c['volume_standard_error']})")
+    check(not (Path(workdir) / "sphere.h5.continuum_checkpoint").exists(), "no checkpoint left after a finished job")
+
+    # 2. Killed, then resumed.
+    nml = write_input(workdir, "killed.nml", "killed.h5", SPHERE + LADDER)
+    checkpoint = Path(workdir) / "killed.h5.continuum_checkpoint"
+    checkpoint.unlink(missing_ok=True)
+    job = subprocess.Popen([mpiexec, "-n", str(ranks), beadmob, str(nml)], cwd=workdir, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 600
+    while time.time() < deadline and job.poll() is None:
+        if checkpoint.exists() and len(checkpoint.read_text().splitlines()) >= 4:
+            break
+        time.sleep(0.05)
+    killed = job.poll() is None
+    if killed:
+        os.killpg(job.pid, signal.SIGKILL)
+        job.wait()
+        time.sleep(2)   # ranks outliving mpiexec for a moment may still finish a sample
+    check(killed, "the job was killed while running (after three samples)")
+    kept = len(checkpoint.read_text().splitlines()) - 1
+    check(kept >= 3 and not (Path(workdir) / "killed.h5").exists(),
+          f"killed: no result file, a whole checkpoint of {kept} samples")
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    said = [line for line in done.stdout.splitlines() if "resuming" in line]
+    check(done.returncode == 0 and f"resuming with {kept} samples" in done.stdout,
+          f"the rerun resumes with the {kept} samples: {said}")
+    resumed = continuum(Path(workdir) / "killed.h5")
+    for name, error in (("coefficients", "coefficient_error"), ("mobility", "mobility_error")):
+        difference = np.abs(resumed[name] - c[name])
+        check(np.all(difference <= 1e-3 * c[error]),
+              f"resumed {name} = uninterrupted within 1e-3 of the error bar (largest {np.max(difference / c[error]):.1e})")
+    check(not checkpoint.exists(), "the resumed job removes its checkpoint")
+
+    # 3. A checkpoint of another input.
+    checkpoint.write_text(f"beadmob-continuum-checkpoint 1 0123456789ABCDEF 1.25E-01\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    check(done.returncode == 0 and "is of another input; starting over" in done.stdout,
+          "a checkpoint of another input is not used")
+
+    # 4. Refusals.
+    (Path(workdir) / "two.txt").write_text("0 0 0\n1 0 0\n")
+    refusals = [
+        ("&shape name = 'bead_file', file = 'two.txt' /\n&hydrodynamics /\n" + LADDER, "needs a shape that fills"),
+        ("&shape name = 'sphere', radius = 4 /\n&hydrodynamics /\n" + LADDER, "needs the shape in its own unit"),
+        (SPHERE + "&continuum levels = 2 /\n", "levels must be 3 to 12"),
+        ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25, lattice_offset = 0.5, 0.5, 0.5 /\n"
+         "&hydrodynamics /\n" + LADDER, "leave &shape lattice_offset out"),
+        ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics accuracy = 0.01 /\n" + LADDER,
+         "accuracy target"),
+        (SPHERE + "&continuum time_budget = 0.01 /\n", "fits the time budget"),
+    ]
+    for body, expected in refusals:
+        nml = write_input(workdir, "refused.nml", "refused.h5", body)
+        done = run(beadmob, mpiexec, ranks, workdir, nml)
+        check(done.returncode != 0 and expected in done.stderr + done.stdout and not (Path(workdir) / "refused.h5").exists(),
+              f"refused ({expected!r}): exit {done.returncode}, {(done.stderr.strip().splitlines() or [''])[-1]!r}")
+
+    # 5. The dry run.
+    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 300 /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
+    check(done.returncode == 0 and "continuum ladder of 7 levels" in done.stdout and not (Path(workdir) / "dry.h5").exists(),
+          "--estimate prints the ladder and writes no result")
+
+    if failures:
+        sys.exit(f"{len(failures)} check(s) failed")
+    print("check_continuum: all checks passed")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:5])
