@@ -145,6 +145,17 @@ def add_analysis_commands(commands) -> None:
     p.set_defaults(handler=run_plot_bench)
 
     p = commands.add_parser(
+        "continuum", help="a continuum job's values and its convergence plot",
+        description="Print the continuum coefficients of a continuum job's result file "
+        "(&continuum, /continuum) with their error bars and the level means they come from, "
+        "and draw each coefficient against the bead diameter with the quadratic to zero bead "
+        "size (-o).")
+    _file_argument(p)
+    p.add_argument("-o", "--output", type=Path, help="convergence figure (.png/.pdf)")
+    p.add_argument("--json", action="store_true", help="print as JSON")
+    p.set_defaults(handler=run_continuum)
+
+    p = commands.add_parser(
         "report", help="all tables and figures of a set of result files in one directory",
         description="Write into DIR: coefficients.{csv,md,tex} (table), comparison.{csv,md,tex} "
         "(beside the paper's Table tab_mob_num), coefficients_vs_paper.{png,pdf} (when any file "
@@ -561,6 +572,27 @@ def run_plot_bench(arguments, out: TextIO) -> int:
     runs = read_bench(arguments.file)
     output = arguments.output or arguments.file.with_name(f"{arguments.file.stem}_{arguments.kind}.png")
     out.write(f"wrote {save(bench_figure(runs, arguments.kind, arguments.x), output)}\n")
+    return 0
+
+
+def run_continuum(arguments, out: TextIO) -> int:
+    from beadmob_post.continuum import convergence_figure, load_continuum
+
+    result = load_continuum(arguments.file)
+    if arguments.json:
+        _write_json(out, {"bead_diameters": result.bead_diameters, "level_coefficients": result.level_coefficients,
+                          "level_coefficient_error": result.level_coefficient_error,
+                          "coefficients": result.coefficients, "coefficient_error": result.coefficient_error,
+                          "reference_length": result.reference_length, "volume": result.volume})
+    else:
+        out.write("level  bead diameter   " + "  ".join(f"{name:>9}" for name in COEFFICIENT_NAMES) + "\n")
+        for k, d in enumerate(result.bead_diameters):
+            out.write(f"{k + 1:5d}  {d:13.5g}   " + "  ".join(f"{v:9.5f}" for v in result.level_coefficients[k]) + "\n")
+        out.write("continuum            " + "  ".join(f"{v:9.5f}" for v in result.coefficients) + "\n")
+        out.write("error bar (+-)       " + "  ".join(f"{v:9.5f}" for v in result.coefficient_error) + "\n")
+    if arguments.output is not None:
+        from beadmob_post.plots import save
+        out.write(f"wrote {save(convergence_figure(result, arguments.file.name), arguments.output)}\n")
     return 0
 
 

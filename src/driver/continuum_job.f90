@@ -40,7 +40,7 @@ module beadmob_continuum_job
   !> Candidate finest levels: bead_diameter * 2**(j/3), j from ladder_coarsest down to ladder_finest.
   integer, parameter :: ladder_coarsest = 6, ladder_finest = -15
   !> A ladder whose coarsest level has fewer beads is too coarse to extrapolate from.
-  integer, parameter :: minimum_coarsest_beads = 250
+  integer, parameter :: minimum_coarsest_beads = 100
   !> The pilot solve that calibrates the time estimates has about this many beads.
   integer, parameter :: pilot_beads = 1000
   !> Numbers per sample in the checkpoint: see pack_sample.

@@ -43,6 +43,9 @@ module beadmob_continuum_fit
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
   end type continuum_result_t
 
+  !> The smallest standard error a level may count with, as a fraction of the median level's.
+  real(dp), parameter, public :: standard_error_floor = 0.2_dp
+
   !> One quantity's continuum value and the parts of its error bar.
   type :: continuum_value_t
     real(dp) :: value = 0.0_dp          ! intercept of the quadratic fit over all levels
@@ -74,8 +77,11 @@ contains
     real(dp) :: weights(size(h)), coefficients(3), variance, chi2
     integer :: order(size(h)), n
     n = size(h)
-    ! A level whose offsets agree to rounding must not take all the weight: a floor of 1e-9 of the value.
-    weights = 1.0_dp / max(standard_error, 1.0e-9_dp * abs(mean), tiny(1.0_dp))**2
+    ! A few offsets can agree by chance: no level's standard error counts as less than a fifth of
+    ! the median level's (nor 1e-9 of its value), or that level alone would make the fit.
+    order = ranks_by_size(standard_error)
+    weights = 1.0_dp / max(standard_error, standard_error_floor * standard_error(order((n + 1) / 2)), &
+                           1.0e-9_dp * abs(mean), tiny(1.0_dp))**2
     call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
     fit%value = coefficients(1)
     fit%slope = coefficients(2)

@@ -7,7 +7,8 @@ src/driver/continuum_job.f90, docs/theory.md T16), end to end.
    (Stokes: 1 / (6 pi a), 1 / (8 pi a^3)) within the job's own error bar; the ladder's bead
    diameters are a factor 2**(1/3) apart; every sample is kept (levels x offsets), every solve
    converged; the continuum friction is the inverse of the continuum mobility; the volume from the
-   moment fills is 4 pi / 3 within its standard error (4x).
+   moment fills is 4 pi / 3 within its standard error (4x); the continuum coefficients are numpy's
+   weighted quadratic fit of the level means (beadmob_post.continuum.quadratic_fit).
 2. Killed while it runs (SIGKILL once the checkpoint holds three samples): no result file; the
    rerun says it resumes with those samples and gives the uninterrupted run's continuum values
    within 1e-3 of their error bars (the resumed samples are read back to the last bit, the others
@@ -26,6 +27,9 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
+from beadmob_post.continuum import load_continuum, quadratic_fit  # noqa: E402
 
 failures = []
 SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
@@ -79,6 +83,12 @@ def main(beadmob, mpiexec, ranks, workdir):
     check(abs(c["volume"] - 4 * math.pi / 3) <= 4 * c["volume_standard_error"],
           f"volume {c['volume']} = 4 pi / 3 within 4 standard errors ({c['volume_standard_error']})")
     check(not (Path(workdir) / "sphere.h5.continuum_checkpoint").exists(), "no checkpoint left after a finished job")
+    # beadmob's extrapolation (normal equations) against numpy's least squares on the same levels.
+    levels = load_continuum(Path(workdir) / "sphere.h5")
+    refit = np.array([quadratic_fit(levels.bead_diameters, levels.level_coefficients[:, k],
+                                    levels.level_coefficient_error[:, k])[0] for k in range(5)])
+    check(np.allclose(refit, levels.coefficients, rtol=1e-8, atol=1e-10 * np.abs(refit).max()),
+          f"the continuum coefficients are numpy's quadratic fit of the level means ({refit} vs {levels.coefficients})")
 
     # 2. Killed, then resumed.
     nml = write_input(workdir, "killed.nml", "killed.h5", SPHERE + LADDER)
