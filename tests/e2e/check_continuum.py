@@ -2,7 +2,7 @@
 """check_continuum.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job (&continuum, issue 25 item 3;
 src/driver/continuum_job.f90, docs/theory.md T16), end to end.
 
-1. A sphere of radius 1 (bead_diameter 0.25, four levels down to d = 0.125, two offsets each):
+1. A sphere of radius 1 (bead_diameter 0.25, four levels down to d = 0.16, two offsets each):
    the continuum translational and rotational mobility must hold the exact sphere's
    (Stokes: 1 / (6 pi a), 1 / (8 pi a^3)) within the job's own error bar; the ladder's bead
    diameters are a factor 2**(1/3) apart; every sample is kept (levels x offsets), every solve
@@ -13,7 +13,7 @@ src/driver/continuum_job.f90, docs/theory.md T16), end to end.
    rerun says it resumes with those samples and gives the uninterrupted run's continuum values
    within 1e-3 of their error bars (the resumed samples are read back to the last bit, the others
    solved again to the Krylov tolerance), and leaves no checkpoint.
-3. A checkpoint of another input is not used ("starting over").
+3. A checkpoint of another input is not used ("starting over"; seen by a dry run).
 4. Refused with a message and a non-zero exit: a bead file (not a filled shape), no bead_diameter,
    levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits.
 5. --estimate prints the ladder and writes nothing."""
@@ -33,7 +33,7 @@ from beadmob_post.continuum import load_continuum, quadratic_fit  # noqa: E402
 
 failures = []
 SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
-LADDER = "&continuum levels = 4, offsets = 2, finest_bead_diameter = 0.125 /\n"
+LADDER = "&continuum levels = 4, offsets = 2, finest_bead_diameter = 0.16 /\n"
 
 
 def check(condition, message):
@@ -72,10 +72,10 @@ def main(beadmob, mpiexec, ranks, workdir):
     check(np.all(deviation <= np.diag(c["mobility_error"])),
           f"sphere: |continuum - Stokes| {deviation / exact} within the error bar {np.diag(c['mobility_error']) / exact}")
     check(np.all(np.diag(c["mobility_error"]) / exact < [0.05] * 3 + [0.15] * 3),
-          "sphere: the error bar is of the ladder's size (< 5 % translation, 15 % rotation at d >= 0.125)")
+          "sphere: the error bar is of the ladder's size (< 5 % translation, 15 % rotation at d >= 0.16)")
     ratios = c["bead_diameters"][:-1] / c["bead_diameters"][1:]
-    check(np.allclose(ratios, 2 ** (1 / 3), rtol=1e-12) and abs(c["bead_diameters"][-1] - 0.125) < 1e-15,
-          f"ladder: bead diameters {c['bead_diameters']} a factor 2**(1/3) apart down to 0.125")
+    check(np.allclose(ratios, 2 ** (1 / 3), rtol=1e-12) and abs(c["bead_diameters"][-1] - 0.16) < 1e-15,
+          f"ladder: bead diameters {c['bead_diameters']} a factor 2**(1/3) apart down to 0.16")
     check(len(c["sample_level"]) == 8 and sorted(c["sample_level"]) == [1, 1, 2, 2, 3, 3, 4, 4],
           f"every sample kept: levels {c['sample_level']}")
     check(c["all_converged"] == 1 and np.all(c["sample_converged"] == 1), "every solve converged")
@@ -123,9 +123,10 @@ def main(beadmob, mpiexec, ranks, workdir):
 
     # 3. A checkpoint of another input.
     checkpoint.write_text(f"beadmob-continuum-checkpoint 1 0123456789ABCDEF 1.25E-01\n")
-    done = run(beadmob, mpiexec, ranks, workdir, nml)
-    check(done.returncode == 0 and "is of another input; starting over" in done.stdout,
-          "a checkpoint of another input is not used")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
+    check(done.returncode == 0 and "is of another input; starting over" in done.stdout and "1.6000E-01" in done.stdout
+          and "1.2500E-01" not in done.stdout, "a checkpoint of another input is not used (nor its finest level, 0.125)")
+    checkpoint.unlink(missing_ok=True)
 
     # 4. Refusals.
     (Path(workdir) / "two.txt").write_text("0 0 0\n1 0 0\n")
