@@ -35,7 +35,8 @@ module beadmob_continuum_job
   character(len=*), parameter :: continuum_checkpoint_suffix = '.continuum_checkpoint'
   character(len=*), parameter :: checkpoint_header = 'beadmob-continuum-checkpoint 1'
   !> Shapes whose lattice can be shifted against the body and whose size is given in a unit.
-  character(len=*), parameter :: filled_shapes(12) = [character(len=16) :: 'sphere', 'spheroid', 'torus', 'mesh', &
+  character(len=*), parameter :: filled_shapes(14) = [character(len=16) :: 'sphere', 'spheroid', 'torus', 'mesh', &
+    'box', 'cylinder', &
     'cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring']
   !> Candidate finest levels: bead_diameter * 2**(j/3), j from ladder_coarsest down to ladder_finest.
   integer, parameter :: ladder_coarsest = 6, ladder_finest = -15
@@ -204,7 +205,7 @@ contains
       call raise(err, '&continuum needs all six motions (motions = ''all'')')
     else if (.not. any(filled_shapes == config%shape%name)) then
       call raise(err, "&continuum needs a shape that fills a body on the lattice, not '" // trim(config%shape%name) // &
-                 "' (one of sphere, spheroid, torus, mesh and the paper's shapes)")
+                 "' (one of sphere, spheroid, box with box_size, cylinder, torus, mesh and the paper's shapes)")
     else if (.not. is_set(config%shape%bead_diameter)) then
       call raise(err, '&continuum needs the shape in its own unit with &shape bead_diameter: the resolution of one ' // &
                  'ordinary run, around which the ladder is chosen')

@@ -12,7 +12,7 @@ module beadmob_shape_catalog
                                   gap_half_angle_from_arc
   use beadmob_paper_presets, only: paper_shape_t, paper_shape_preset
   use beadmob_simple_shapes, only: build_single_bead, build_bead_pair, build_chain, build_filled_sphere, &
-                                   build_spheroid, build_box, build_torus
+                                   build_spheroid, build_box, build_torus, build_solid_box, build_cylinder
   use beadmob_text_bead_file, only: read_text_bead_file
   use beadmob_hdf5_bead_file, only: read_hdf5_bead_file, is_hdf5_file
   use beadmob_triangle_mesh, only: triangle_mesh_t, read_triangle_mesh, check_closed_mesh, fill_mesh_on_lattice
@@ -21,7 +21,7 @@ module beadmob_shape_catalog
   public :: build_bead_model, known_shape_names
 
   character(len=*), parameter :: known_shape_names = 'cone, arrowhead, crescent_moon, ring_1mm, ring_2mm, ' // &
-    'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, torus, bead_file, mesh'
+    'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, cylinder, torus, bead_file, mesh'
 
   !> One real parameter of the &shape group, by name, for the "given but not taken" check.
   type :: named_value_t
@@ -58,7 +58,7 @@ contains
     select case (name)
     case ('cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring')
       call build_paper_shape(shape_config, model, err)
-    case ('single_bead', 'bead_pair', 'chain', 'sphere', 'spheroid', 'box', 'torus')
+    case ('single_bead', 'bead_pair', 'chain', 'sphere', 'spheroid', 'box', 'cylinder', 'torus')
       call build_simple_shape(shape_config, model, err)
     case ('bead_file')
       call read_bead_file(ctx, shape_config, model, err)
@@ -239,13 +239,32 @@ contains
       end do
       call build_spheroid(c%semi_axes * per_d, model%centres, err, c%lattice_offset)
     case ('box')
+      if (any(is_set(c%box_size))) then   ! by its side lengths, in any unit
+        call only_given(c, [character(len=32) :: 'box_size', 'bead_diameter', 'lattice_offset'], err)
+        if (.not. all(is_set(c%box_size))) call raise(err, "&shape: shape 'box' needs box_size = lx, ly, lz (all three)")
+        if (err%failed) return
+        do k = 1, 3
+          call add_parameter(model, 'size_' // achar(iachar('x') + k - 1), c%box_size(k))
+        end do
+        call build_solid_box(c%box_size * per_d, model%centres, err, c%lattice_offset)
+        return
+      end if
       call only_given(c, [character(len=32) :: 'box_beads'], err)
-      if (.not. all(is_set(c%box_beads))) call raise(err, "&shape: shape 'box' needs box_beads = nx, ny, nz")
+      if (.not. all(is_set(c%box_beads))) call raise(err, "&shape: shape 'box' needs box_beads = nx, ny, nz " // &
+                                                     '(beads) or box_size = lx, ly, lz (lengths)')
       if (err%failed) return
       do k = 1, 3
         call add_parameter(model, 'beads_' // achar(iachar('x') + k - 1), real(c%box_beads(k), dp))
       end do
       call build_box(c%box_beads(1), c%box_beads(2), c%box_beads(3), model%centres, err)
+    case ('cylinder')
+      call only_given(c, [character(len=32) :: 'radius', 'length', 'bead_diameter', 'lattice_offset'], err)
+      call require(c, 'radius', c%radius, err)
+      call require(c, 'length', c%length, err)
+      if (err%failed) return
+      call add_parameter(model, 'radius', c%radius)
+      call add_parameter(model, 'length', c%length)
+      call build_cylinder(c%radius * per_d, c%length * per_d, model%centres, err, c%lattice_offset)
     case ('torus')
       call only_given(c, [character(len=32) :: 'major_radius', 'minor_radius', 'bead_diameter', 'lattice_offset'], err)
       call require(c, 'major_radius', c%major_radius, err)
@@ -358,7 +377,7 @@ contains
     type(shape_config_t), intent(in) :: c
     character(len=*), intent(in) :: allowed(:)
     type(error_t), intent(inout) :: err
-    type(named_value_t) :: given(22)
+    type(named_value_t) :: given(23)
     integer :: k
     given = [named_value_t('base_diameter', is_set(c%base_diameter)), named_value_t('height', is_set(c%height)), &
              named_value_t('length', is_set(c%length)), named_value_t('middle_height', is_set(c%middle_height)), &
@@ -373,7 +392,8 @@ contains
              named_value_t('semi_axes', any(is_set(c%semi_axes))), named_value_t('n_beads', is_set(c%n_beads)), &
              named_value_t('box_beads', any(is_set(c%box_beads))), named_value_t('file', len_trim(c%file) > 0), &
              named_value_t('bead_diameter', is_set(c%bead_diameter)), &
-             named_value_t('lattice_offset', any(c%lattice_offset /= 0.0_dp))]
+             named_value_t('lattice_offset', any(c%lattice_offset /= 0.0_dp)), &
+             named_value_t('box_size', any(is_set(c%box_size)))]
     do k = 1, size(given)
       if (given(k)%given .and. .not. any(allowed == given(k)%name)) then
         call raise(err, "&shape: parameter '" // trim(given(k)%name) // "' is not taken by shape '" // &

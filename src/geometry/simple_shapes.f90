@@ -16,7 +16,7 @@ module beadmob_simple_shapes
   implicit none
   private
   public :: build_single_bead, build_bead_pair, build_chain, build_filled_sphere
-  public :: build_spheroid, build_box, build_torus
+  public :: build_spheroid, build_box, build_torus, build_solid_box, build_cylinder
 
 
 contains
@@ -160,4 +160,49 @@ contains
     end function inside_torus
   end subroutine build_torus
 
+  !> Lattice points of the box |x| <= sizes(1) / 2, |y| <= sizes(2) / 2, |z| <= sizes(3) / 2
+  !> (centred on a node; `offset`: lattice_nodes_inside): a box in physical units.
+  subroutine build_solid_box(sizes, centres, err, offset)
+    real(dp), intent(in) :: sizes(3)
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)
+    integer :: n(3), i
+    do i = 1, 3
+      if (.not. positive_size(sizes(i), 'box: box_size(' // str(i) // ')', err)) then
+        allocate (centres(3, 0))
+        return
+      end if
+    end do
+    n = floor(0.5_dp * sizes * (1.0_dp + boundary_tolerance))
+    call lattice_nodes_inside(-n, n, inside_box, 'box', lattice_shift(offset), centres, err)
+  contains
+    logical function inside_box(node)
+      real(dp), intent(in) :: node(3)
+      inside_box = all(abs(node) <= 0.5_dp * sizes * (1.0_dp + boundary_tolerance))
+    end function inside_box
+  end subroutine build_solid_box
+
+  !> Lattice points of the circular cylinder x^2 + y^2 <= radius^2, |z| <= length / 2 (axis z,
+  !> centred on a node; `offset`: lattice_nodes_inside).
+  subroutine build_cylinder(radius, length, centres, err, offset)
+    real(dp), intent(in) :: radius, length
+    real(dp), allocatable, intent(out) :: centres(:, :)
+    type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: offset(3)
+    integer :: n_r, n_z
+    allocate (centres(3, 0))
+    if (.not. positive_size(radius, 'cylinder: radius', err)) return
+    if (.not. positive_size(length, 'cylinder: length', err)) return
+    n_r = floor(radius * (1.0_dp + boundary_tolerance))
+    n_z = floor(0.5_dp * length * (1.0_dp + boundary_tolerance))
+    call lattice_nodes_inside([-n_r, -n_r, -n_z], [n_r, n_r, n_z], inside_cylinder, 'cylinder', lattice_shift(offset), &
+                              centres, err)
+  contains
+    logical function inside_cylinder(node)
+      real(dp), intent(in) :: node(3)
+      inside_cylinder = node(1)**2 + node(2)**2 <= radius**2 * (1.0_dp + boundary_tolerance) .and. &
+                        abs(node(3)) <= 0.5_dp * length * (1.0_dp + boundary_tolerance)
+    end function inside_cylinder
+  end subroutine build_cylinder
 end module beadmob_simple_shapes

@@ -41,6 +41,8 @@ module beadmob_input_config
     real(dp) :: lattice_offset(3) = 0.0_dp
     integer :: n_beads = unset_int
     integer :: box_beads(3) = unset_int
+    !> A box by its side lengths (centred on a node; with bead_diameter in any unit).
+    real(dp) :: box_size(3) = unset_real
   end type shape_config_t
 
   !> The &continuum group: the body's continuum mobility from a ladder of resolutions, each
@@ -409,12 +411,12 @@ contains
     character(len=256) :: dataset
     real(dp) :: reference_length, base_diameter, height, length, middle_height, width, semi_major, semi_minor, &
                 pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, radius, &
-                major_radius, minor_radius, semi_axes(3), bead_diameter, lattice_offset(3)
+                major_radius, minor_radius, semi_axes(3), bead_diameter, lattice_offset(3), box_size(3)
     integer :: n_beads, box_beads(3), status
     character(len=512) :: message
     namelist /shape/ name, file, dataset, reference_length, base_diameter, height, length, middle_height, width, &
       semi_major, semi_minor, pipe_radius, gap_half_angle, gap_arc_length, scale, section_ratio, separation, &
-      radius, major_radius, minor_radius, semi_axes, n_beads, box_beads, bead_diameter, lattice_offset
+      radius, major_radius, minor_radius, semi_axes, n_beads, box_beads, bead_diameter, lattice_offset, box_size
 
     associate (c => shape_config)
       name = c%name; file = c%file; dataset = c%dataset; reference_length = c%reference_length
@@ -424,7 +426,7 @@ contains
       section_ratio = c%section_ratio; separation = c%separation; radius = c%radius
       major_radius = c%major_radius; minor_radius = c%minor_radius; semi_axes = c%semi_axes
       n_beads = c%n_beads; box_beads = c%box_beads; bead_diameter = c%bead_diameter
-      lattice_offset = c%lattice_offset
+      lattice_offset = c%lattice_offset; box_size = c%box_size
     end associate
     ! gfortran reports success when the group is absent from an internal file: look for it.
     found = has_group(lines, 'shape')
@@ -439,7 +441,8 @@ contains
       semi_major=semi_major, semi_minor=semi_minor, pipe_radius=pipe_radius, gap_half_angle=gap_half_angle, &
       gap_arc_length=gap_arc_length, scale=scale, section_ratio=section_ratio, separation=separation, &
       radius=radius, major_radius=major_radius, minor_radius=minor_radius, semi_axes=semi_axes, &
-      n_beads=n_beads, box_beads=box_beads, bead_diameter=bead_diameter, lattice_offset=lattice_offset)
+      n_beads=n_beads, box_beads=box_beads, bead_diameter=bead_diameter, lattice_offset=lattice_offset, &
+      box_size=box_size)
   end subroutine read_shape_group
 
   !> The configuration actually used, written back as namelists (defaults made visible).
@@ -483,6 +486,10 @@ contains
       call add_real('bead_diameter', c%bead_diameter)
       if (all(is_set(c%semi_axes))) then
         write (line, '(a, 3(es23.16, :, ", "))') '  semi_axes = ', c%semi_axes
+        text = text // trim(line) // new_line('a')
+      end if
+      if (all(is_set(c%box_size))) then
+        write (line, '(a, 3(es23.16, :, ", "))') '  box_size = ', c%box_size
         text = text // trim(line) // new_line('a')
       end if
       if (any(c%lattice_offset /= 0.0_dp)) then

@@ -5,7 +5,7 @@ program test_simple_shapes
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t
   use beadmob_simple_shapes, only: build_single_bead, build_bead_pair, build_chain, build_filled_sphere, &
-                                   build_spheroid, build_box, build_torus
+                                   build_spheroid, build_box, build_torus, build_solid_box, build_cylinder
   use beadmob_testing
   implicit none
   type(test_suite_t) :: suite
@@ -42,6 +42,16 @@ program test_simple_shapes
 
   call build_box(3, 4, 5, centres, err)
   call check_equal(suite, size(centres, 2), 60, 'box 3 x 4 x 5')
+  ! Sides 3, 4, 5 centred on a node: |x| <= 1.5, |y| <= 2, |z| <= 2.5 hold 3 x 5 x 5 nodes; on the
+  ! lattice shifted by 0.25 on every axis, 3 x 4 x 5 points (x in -0.75 ... 1.25, y in -1.75 ... 1.25).
+  call build_solid_box([3.0_dp, 4.0_dp, 5.0_dp], centres, err)
+  call check_equal(suite, size(centres, 2), 75, 'box of sides 3, 4, 5')
+  call build_solid_box([3.0_dp, 4.0_dp, 5.0_dp], centres, err, [0.25_dp, 0.25_dp, 0.25_dp])
+  call check_equal(suite, size(centres, 2), 60, 'box of sides 3, 4, 5 on the lattice shifted by 0.25')
+  call check(suite, abs(minval(centres(2, :)) + 1.75_dp) < 1e-15_dp, 'shifted box: its points are node + 0.25')
+  ! Cylinder radius 2, length 4: N(2) = 13 disk points (Gauss circle) in each of 5 layers.
+  call build_cylinder(2.0_dp, 4.0_dp, centres, err)
+  call check_equal(suite, size(centres, 2), 65, 'cylinder (2, 4)')
 
   ! Torus R = 3, r = 1: in z = 0 the 49 - 9 = 40 points with 4 <= x^2 + y^2 <= 16 (Gauss circle
   ! counts N(4) = 49, N(sqrt 3) = 9); in z = +-1 the 4 points each with x^2 + y^2 = 9.
