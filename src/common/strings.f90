@@ -3,7 +3,7 @@ module beadmob_strings
   use beadmob_kinds, only: dp, i4, i8
   implicit none
   private
-  public :: str, str_approx
+  public :: str, str_approx, either
 
   interface str
     module procedure str_int4, str_int8, str_real, str_logical
@@ -63,4 +63,15 @@ contains
       text = 'false'
     end if
   end function str_logical
+  !> if_true when condition holds, else if_false (texts of different lengths, unlike merge).
+  pure function either(condition, if_true, if_false) result(text)
+    logical, intent(in) :: condition
+    character(len=*), intent(in) :: if_true, if_false
+    character(len=:), allocatable :: text
+    if (condition) then
+      text = if_true
+    else
+      text = if_false
+    end if
+  end function either
 end module beadmob_strings

@@ -11,12 +11,13 @@ module beadmob_continuum_job
   use mpi, only: MPI_Bcast, MPI_INTEGER, MPI_DOUBLE_PRECISION, MPI_Wtime
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str
+  use beadmob_strings, only: str, either
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_input_config, only: run_config_t, effective_input_text, is_set
   use beadmob_checkpoint_file, only: fnv1a_hex
   use beadmob_bead_model, only: bead_model_t
+  use beadmob_lattice_fill, only: offset_sequence
   use beadmob_shape_catalog, only: build_bead_model
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
@@ -227,7 +228,7 @@ contains
     type(run_config_t) :: c
     c = config
     c%shape%bead_diameter = d
-    c%shape%lattice_offset = [halton(j, 2), halton(j, 3), halton(j, 5)]
+    c%shape%lattice_offset = offset_sequence(j)
     call build_bead_model(ctx, c%shape, model, err)
     call agree_on_error(ctx, err)
     if (.not. err%failed .and. size(model%centres, 2) < 2) &
@@ -328,7 +329,7 @@ contains
     c%hydrodynamics%progress = .false.
     c%shape%bead_diameter = d
     ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-    c%shape%lattice_offset = [halton(1, 2), halton(1, 3), halton(1, 5)]
+    c%shape%lattice_offset = offset_sequence(1)
     seconds = 0.0_dp
     call build_bead_model(ctx, c%shape, model, err)
     call agree_on_error(ctx, err)
@@ -623,29 +624,5 @@ contains
     p%moments%second = reshape(values(52:60), [3, 3])
   end function unpack_sample
 
-  !> Element `index` of the van der Corput sequence in `base` (one coordinate of Halton's).
-  pure real(dp) function halton(index, base)
-    integer, intent(in) :: index, base
-    real(dp) :: f
-    integer :: i
-    halton = 0.0_dp
-    f = 1.0_dp
-    i = index
-    do while (i > 0)
-      f = f / base
-      halton = halton + f * modulo(i, base)
-      i = i / base
-    end do
-  end function halton
 
-  pure function either(condition, yes, no) result(text)
-    logical, intent(in) :: condition
-    character(len=*), intent(in) :: yes, no
-    character(len=:), allocatable :: text
-    if (condition) then
-      text = yes
-    else
-      text = no
-    end if
-  end function either
 end module beadmob_continuum_job

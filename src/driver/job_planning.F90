@@ -10,7 +10,7 @@ module beadmob_job_planning
   use petscsys
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str
+  use beadmob_strings, only: str, either
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_resources, only: available_memory_bytes, online_processors
   use beadmob_input_config, only: run_config_t
@@ -134,17 +134,6 @@ contains
       text = 'block table'
     end select
   end function kernel_name
-
-  pure function either(condition, if_true, if_false) result(text)
-    logical, intent(in) :: condition
-    character(len=*), intent(in) :: if_true, if_false
-    character(len=:), allocatable :: text
-    if (condition) then
-      text = if_true
-    else
-      text = if_false
-    end if
-  end function either
 
   function gib_text(bytes) result(text)
     real(dp), intent(in) :: bytes

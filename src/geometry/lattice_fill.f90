@@ -8,7 +8,7 @@ module beadmob_lattice_fill
   use beadmob_resources, only: available_memory_bytes
   implicit none
   private
-  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift
+  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift, offset_sequence
 
   !> Relative tolerance of the inside tests of the shape builders.
   real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
@@ -66,6 +66,28 @@ contains
     shift = 0.0_dp
     if (present(offset)) shift = offset
   end function lattice_shift
+
+  !> Lattice offset number j >= 1 of a well spread sequence over the unit cell: the Halton
+  !> sequence in bases 2, 3, 5 (van der Corput's in each base per axis).
+  pure function offset_sequence(j) result(offset)
+    integer, intent(in) :: j
+    real(dp) :: offset(3)
+    offset = [van_der_corput(j, 2), van_der_corput(j, 3), van_der_corput(j, 5)]
+  contains
+    pure real(dp) function van_der_corput(index, base)
+      integer, intent(in) :: index, base
+      real(dp) :: f
+      integer :: i
+      van_der_corput = 0.0_dp
+      f = 1.0_dp
+      i = index
+      do while (i > 0)
+        f = f / base
+        van_der_corput = van_der_corput + f * modulo(i, base)
+        i = i / base
+      end do
+    end function van_der_corput
+  end function offset_sequence
 
   !> buffer(3, n) for the n = product(sites) candidate lattice nodes of a shape builder, refused
   !> with one message (never a crash) when n exceeds the bead index range (default integers) or

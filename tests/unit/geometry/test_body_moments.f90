@@ -3,12 +3,13 @@
 !> The mean over sub-lattice offsets of a lattice ellipsoid's volume and second moments is the
 !> continuous ellipsoid's (V = 4 pi abc / 3, moment a^2 / 5 per volume on each axis: exact
 !> integrals), so the equivalent ellipsoid of the averaged moments is the ellipsoid itself;
-!> the offsets are a (2, 3, 5) Halton sequence.
+!> the offsets are the continuum job's (offset_sequence: the Halton sequence in bases 2, 3, 5).
 program test_body_moments
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_simple_shapes, only: build_spheroid
+  use beadmob_lattice_fill, only: offset_sequence
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, equivalent_ellipsoid
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp), semi_axes(3) = [9.0_dp, 6.0_dp, 4.5_dp], d = 0.5_dp
@@ -22,7 +23,7 @@ program test_body_moments
 
   suite = start_tests('test_body_moments')
   do k = 1, fills
-    offset = [halton(k, 2), halton(k, 3), halton(k, 5)]
+    offset = offset_sequence(k)
     call build_spheroid(semi_axes / d, centres, err, offset)
     one = moments_of_beads(centres, d)
     mean%volume = mean%volume + one%volume / fills
@@ -43,18 +44,4 @@ program test_body_moments
   call equivalent_ellipsoid(one, 0.0_dp, semi_found, axes_found, err)
   call check(suite, err%failed, 'no volume: refused')
   call finish_tests(suite)
-contains
-  pure real(dp) function halton(index, base)
-    integer, intent(in) :: index, base
-    real(dp) :: f
-    integer :: i
-    halton = 0.0_dp
-    f = 1.0_dp
-    i = index
-    do while (i > 0)
-      f = f / base
-      halton = halton + f * modulo(i, base)
-      i = i / base
-    end do
-  end function halton
 end program test_body_moments
