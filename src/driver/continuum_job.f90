@@ -1,4 +1,4 @@
-!> The continuum job (&continuum, issue 25 item 3, docs/theory.md T16): the mobility of the body
+!> The continuum job (&continuum, issue 25 item 3, docs/theory.md T18): the mobility of the body
 !> a shape describes, not of one bead model of it. A ladder of resolutions (bead diameters a
 !> factor 2**(1/3) apart, bead counts a factor 2), chosen from the time budget with the dry
 !> run's estimates; at each, the friction job on `offsets` bead models of the same body on
@@ -128,8 +128,10 @@ contains
       end do
     end do
 
-    ! The reference model (finest level, first offset) carries the geometry and the body frame.
-    call build_at(ctx, config, diameters(size(diameters)), 1, model, err)
+    ! The reference model carries the geometry and the body frame of the coefficients: the finest
+    ! level on the lattice through the body's origin (offset 0), which keeps the shape's mirror
+    ! planes (an offset breaks them, and the paper's frame is chosen by them: body_frame.f90).
+    call build_at(ctx, config, diameters(size(diameters)), 0, model, err)
     if (err%failed) return
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
@@ -216,7 +218,7 @@ contains
   end subroutine check_continuum_input
 
   !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
-  !> (Halton sequence in bases 2, 3, 5: well spread over the unit cell); `used` gets the config.
+  !> (offset_sequence: well spread over the unit cell; j = 0: no offset); `used` gets the config.
   subroutine build_at(ctx, config, d, j, model, err, used)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
@@ -357,7 +359,7 @@ contains
     end do
   end subroutine pilot_diameter
 
-  !> The corrected samples, the level means and the extrapolation (docs/theory.md T16).
+  !> The corrected samples, the level means and the extrapolation (docs/theory.md T18).
   subroutine continuum_values(config, diameters, samples, body, volumes, axes, result, err)
     type(run_config_t), intent(in) :: config
     real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3)
@@ -375,6 +377,7 @@ contains
     n = size(samples)
     levels = size(diameters)
     result%offsets = config%continuum%offsets
+    result%multipole_order = config%hydrodynamics%multipole_order
     result%moment_fills = config%continuum%moment_fills
     result%time_budget = config%continuum%time_budget
     result%bead_diameters = diameters
@@ -386,7 +389,7 @@ contains
     call equivalent_ellipsoid(body, 0.0_dp, result%semi_axes, result%axes, err)
     if (err%failed) return
     allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
-    allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n))
+    allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
     do s = 1, n
       associate (p => samples(s), d => samples(s)%bead_diameter)
@@ -397,6 +400,7 @@ contains
         result%sample_offset(:, s) = p%offset
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
+        result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
         result%sample_friction(:, s) = reshape(p%friction, [36])
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
         scale = [d, d, d, d**2, d**2, d**2]

@@ -2,7 +2,7 @@
 !> unit: each bead centre stands for a lattice cell of volume d^3. Averaged over uniform
 !> sub-lattice offsets, the lattice sums are exactly the body's integrals (the mean of
 !> sum_n f(n + offset) over offsets is int f dV / d^3), so a few dozen cheap fills give the
-!> continuum body's volume and moments without a formula for each shape (docs/theory.md T16).
+!> continuum body's volume and moments without a formula for each shape (docs/theory.md T18).
 module beadmob_body_moments
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise

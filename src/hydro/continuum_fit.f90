@@ -1,4 +1,4 @@
-!> The continuum limit of a ladder of bead models (docs/theory.md T16): one quantity (a
+!> The continuum limit of a ladder of bead models (docs/theory.md T18): one quantity (a
 !> mobility entry, a coefficient) known at each level k as the mean over its sub-lattice offsets,
 !> with that mean's standard error, is extrapolated to zero bead size h = d by weighted least
 !> squares in h and h^2 (measured on spheres and ellipsoids: the offset-averaged, volume- and
@@ -19,7 +19,7 @@ module beadmob_continuum_fit
   !> the ladder, every solved sample, each level's means and the continuum values. Lengths in
   !> the shape's unit, viscosity 1; mobility about the body's centroid, in the input's axes.
   type :: continuum_result_t
-    integer :: offsets = 0, moment_fills = 0
+    integer :: offsets = 0, moment_fills = 0, multipole_order = 0
     real(dp) :: time_budget = 0.0_dp, estimated_seconds = 0.0_dp, reference_length = 0.0_dp
     real(dp), allocatable :: bead_diameters(:)                  ! per level, coarsest first
     !> The body from the moment fills: volume and its standard error, centroid, the equivalent
@@ -27,11 +27,12 @@ module beadmob_continuum_fit
     real(dp) :: volume = 0.0_dp, volume_error = 0.0_dp, centroid(3) = 0.0_dp
     real(dp) :: semi_axes(3) = 0.0_dp, axes(3, 3) = 0.0_dp
     !> Per sample: its level, offset (d), beads, Krylov iterations (sum over its solves), 1 when
-    !> every solve converged, largest true relative residual, wall time; its friction as solved
+    !> every solve converged, largest true relative residual, wall time, ||K - K^T|| / ||K|| of
+    !> its friction K; its friction as solved
     !> (36, d units, about its beads' centre of mass) and its corrected mobility (36) and
     !> coefficients (5).
     integer, allocatable :: sample_level(:), sample_beads(:), sample_iterations(:), sample_converged(:)
-    real(dp), allocatable :: sample_offset(:, :), sample_residual(:), sample_seconds(:)
+    real(dp), allocatable :: sample_offset(:, :), sample_residual(:), sample_seconds(:), sample_symmetry_error(:)
     real(dp), allocatable :: sample_friction(:, :), sample_mobility(:, :), sample_coefficients(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.
     real(dp), allocatable :: level_mobility(:, :), level_mobility_error(:, :)

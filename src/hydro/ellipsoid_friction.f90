@@ -1,6 +1,6 @@
 !> The exact Stokes friction of a rigid ellipsoid: the continuum job's model of how the
 !> friction of a bead model responds to the small changes of volume and shape that the lattice
-!> makes at each offset (continuum_fit.f90, docs/theory.md T16).
+!> makes at each offset (continuum_fit.f90, docs/theory.md T18).
 !>
 !> Semi-axes a_i, Delta(l) = sqrt(prod_i (a_i^2 + l)), chi = int_0^inf dl / Delta and
 !> alpha_i = int_0^inf dl / ((a_i^2 + l) Delta). In the principal frame, viscosity 1:

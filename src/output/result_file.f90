@@ -42,7 +42,7 @@ contains
     type(error_t), intent(inout) :: err
     type(mobility_result_t), intent(in), optional :: mobility
     type(friction_result_t), intent(in), optional :: job_result
-    !> A continuum job's ladder and values (the geometry is then its finest level's first offset)
+    !> A continuum job's ladder and values (the geometry is then its finest level without offset)
     type(continuum_result_t), intent(in), optional :: continuum
     character(len=:), allocatable :: final_path, partial_path
     integer(hid_t) :: file_id
@@ -268,7 +268,7 @@ contains
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
 
-  !> The continuum job's group (docs/output.md, docs/theory.md T16).
+  !> The continuum job's group (docs/output.md, docs/theory.md T18).
   subroutine write_continuum(ctx, file_id, c, err)
     type(run_context_t), intent(in) :: ctx
     integer(hid_t), intent(in) :: file_id
@@ -278,9 +278,10 @@ contains
     call h5_create_group(file_id, 'continuum', group, err)
     call write_attribute(group, 'method', 'levels of bead diameter a factor 2**(1/3) apart, each the mean over ' // &
                          'sub-lattice offsets of the order-L friction corrected by the exact friction of the body''s ' // &
-                         'equivalent ellipsoid, extrapolated to zero bead size by a quadratic (docs/theory.md T16)', err)
+                         'equivalent ellipsoid, extrapolated to zero bead size by a quadratic (docs/theory.md T18)', err)
     call write_attribute(group, 'units', 'lengths in the shape''s unit, viscosity 1; mobility about the centroid, ' // &
                          'input axes; coefficients with reference_length', err)
+    call write_attribute(group, 'multipole_order', c%multipole_order, err)
     call write_attribute(group, 'offsets', c%offsets, err)
     call write_attribute(group, 'moment_fills', c%moment_fills, err)
     call write_attribute(group, 'time_budget', c%time_budget, err)
@@ -301,6 +302,7 @@ contains
     call write_replicated_dataset(ctx, group, 'sample_offset', c%sample_offset, err)
     call write_replicated_dataset(ctx, group, 'sample_true_relative_residual', c%sample_residual, err)
     call write_replicated_dataset(ctx, group, 'sample_seconds', c%sample_seconds, err)
+    call write_replicated_dataset(ctx, group, 'sample_friction_symmetry_error', c%sample_symmetry_error, err)
     call write_replicated_dataset(ctx, group, 'sample_friction', c%sample_friction, err)
     call write_replicated_dataset(ctx, group, 'sample_mobility', c%sample_mobility, err)
     call write_replicated_dataset(ctx, group, 'sample_coefficients', c%sample_coefficients, err)

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """check_continuum.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job (&continuum, issue 25 item 3;
-src/driver/continuum_job.f90, docs/theory.md T16), end to end.
+src/driver/continuum_job.f90, docs/theory.md T18), end to end.
 
 1. A sphere of radius 1 (bead_diameter 0.25, four levels down to d = 0.16, two offsets each):
    the continuum translational and rotational mobility must hold the exact sphere's
@@ -79,6 +79,10 @@ def main(beadmob, mpiexec, ranks, workdir):
     check(len(c["sample_level"]) == 8 and sorted(c["sample_level"]) == [1, 1, 2, 2, 3, 3, 4, 4],
           f"every sample kept: levels {c['sample_level']}")
     check(c["all_converged"] == 1 and np.all(c["sample_converged"] == 1), "every solve converged")
+    check(c["multipole_order"] == 2 and np.all(c["sample_friction_symmetry_error"] < 1e-6)
+          and np.all(c["sample_true_relative_residual"] < 1e-2),
+          f"recorded: L = {c['multipole_order']}, friction symmetry errors <= "
+          f"{c['sample_friction_symmetry_error'].max():.1e}, true residuals <= {c['sample_true_relative_residual'].max():.1e}")
     check(np.allclose(c["friction"] @ c["mobility"], np.eye(6), atol=1e-10), "continuum friction = mobility^-1")
     check(abs(c["volume"] - 4 * math.pi / 3) <= 4 * c["volume_standard_error"],
           f"volume {c['volume']} = 4 pi / 3 within 4 standard errors ({c['volume_standard_error']})")
