@@ -16,7 +16,9 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
 3. A checkpoint of another input is not used ("starting over"; seen by a dry run).
 4. Refused with a message and a non-zero exit: a bead file (not a filled shape), no bead_diameter,
    levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits.
-5. --estimate prints the ladder and writes nothing."""
+5. --estimate prints the ladder and writes nothing.
+6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
+   mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes."""
 import math
 import os
 import signal
@@ -93,6 +95,21 @@ def main(beadmob, mpiexec, ranks, workdir):
                                     levels.level_coefficient_error[:, k])[0] for k in range(5)])
     check(np.allclose(refit, levels.coefficients, rtol=1e-8, atol=1e-10 * np.abs(refit).max()),
           f"the continuum coefficients are numpy's quadratic fit of the level means ({refit} vs {levels.coefficients})")
+
+    # The coefficients' frame: a small cone (axis z, mirror planes x and y on the lattice without
+    # offset, none on the shifted ones) must keep the paper's pattern: mu11 = mu22 (axisymmetric)
+    # within the bars, mu33 > mu11 (broadside is slower than along the axis: paper, tab_mob_num),
+    # mu42 > 0 > mu51.
+    nml = write_input(workdir, "cone.nml", "cone.h5", "&shape name = 'cone', base_diameter = 2.0, height = 4.7, "
+                      "bead_diameter = 0.2, reference_length = 2.1 /\n&hydrodynamics /\n"
+                      "&continuum levels = 3, offsets = 2, finest_bead_diameter = 0.2 /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    if done.returncode != 0:
+        sys.exit(f"the cone's continuum job failed:\n{done.stdout}\n{done.stderr}")
+    cone = continuum(Path(workdir) / "cone.h5")
+    mu, bar = cone["coefficients"], cone["coefficient_error"]
+    check(abs(mu[0] - mu[1]) <= bar[0] + bar[1] and mu[2] > mu[0] and mu[3] > 0 > mu[4],
+          f"cone: the paper's frame and pattern (mu {mu}, +- {bar})")
 
     # 2. Killed, then resumed.
     nml = write_input(workdir, "killed.nml", "killed.h5", SPHERE + LADDER)
