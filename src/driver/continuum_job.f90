@@ -23,7 +23,7 @@ module beadmob_continuum_job
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction
-  use beadmob_mobility, only: mobility_result_t, compute_mobility
+  use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
   use beadmob_job_plan, only: job_plan_t
   use beadmob_friction_job, only: friction_of_plan, friction_result_t
@@ -163,6 +163,9 @@ contains
       start = MPI_Wtime()
       sample_config = config
       call build_at(ctx, config, d, j, sample_model, err, sample_config)
+      if (.not. err%failed .and. size(sample_model%centres, 2) < 2) &
+        call raise(err, '&continuum: ' // str(size(sample_model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
+                   ': the shape is too small for this resolution')
       if (err%failed) return
       call check_bead_model(sample_model, config%overlap_tolerance, err)
       if (.not. err%failed) call compute_body_frame(sample_model%centres, sample_frame, err)
@@ -233,9 +236,6 @@ contains
     c%shape%lattice_offset = offset_sequence(j)
     call build_bead_model(ctx, c%shape, model, err)
     call agree_on_error(ctx, err)
-    if (.not. err%failed .and. size(model%centres, 2) < 2) &
-      call raise(err, '&continuum: ' // str(size(model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
-                 ': the shape is too small for this resolution')
     if (present(used)) used = c
   end subroutine build_at
 
@@ -325,17 +325,13 @@ contains
     type(run_config_t) :: c
     type(bead_model_t) :: model
     type(job_plan_t) :: plan
-    c = config
+    seconds = 0.0_dp
+    ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
+    call build_at(ctx, config, d, 1, model, err, c)
+    if (err%failed) return
     c%dry_run = .false.
     c%hydrodynamics%error_estimate = .false.
     c%hydrodynamics%progress = .false.
-    c%shape%bead_diameter = d
-    ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-    c%shape%lattice_offset = offset_sequence(1)
-    seconds = 0.0_dp
-    call build_bead_model(ctx, c%shape, model, err)
-    call agree_on_error(ctx, err)
-    if (err%failed) return
     if (present(n)) n = size(model%centres, 2)
     if (size(model%centres, 2) < minimum_coarsest_beads) return   ! too coarse for a level: no plan needed
     call plan_friction_job(ctx, c, model%centres, plan, refused)
@@ -456,35 +452,8 @@ contains
       result%coefficient_reduced(q) = fit%reduced_value
     end do
     result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))
-    call invert_mobility(result%mobility, result%friction, err)
+    call invert(result%mobility, result%friction, err, 'the extrapolated mobility')
   end subroutine continuum_values
-
-  !> The continuum friction: the inverse of the continuum mobility (Gauss-Jordan, 6 x 6).
-  subroutine invert_mobility(mobility, friction, err)
-    real(dp), intent(in) :: mobility(6, 6)
-    real(dp), intent(out) :: friction(6, 6)
-    type(error_t), intent(inout) :: err
-    real(dp) :: work(6, 12), pivot
-    integer :: i, k
-    work = 0.0_dp
-    work(:, 1:6) = mobility
-    do i = 1, 6
-      work(i, 6 + i) = 1.0_dp
-    end do
-    friction = 0.0_dp
-    do i = 1, 6
-      pivot = work(i, i)
-      if (.not. (abs(pivot) > 0.0_dp)) then
-        call raise(err, '&continuum: the extrapolated mobility is singular')
-        return
-      end if
-      work(i, :) = work(i, :) / pivot
-      do k = 1, 6
-        if (k /= i) work(k, :) = work(k, :) - work(k, i) * work(i, :)
-      end do
-    end do
-    friction = work(:, 7:12)
-  end subroutine invert_mobility
 
   !> Running mean of the moment fills.
   subroutine accumulate(total, one, fills)

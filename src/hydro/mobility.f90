@@ -11,7 +11,7 @@ module beadmob_mobility
   use beadmob_strings, only: str
   implicit none
   private
-  public :: mobility_result_t, compute_mobility, shifted, mobility_in_frame, coefficient_entries, coefficient_lengths
+  public :: mobility_result_t, compute_mobility, shifted, mobility_in_frame, coefficient_entries, coefficient_lengths, invert
 
   real(dp), parameter :: pi = acos(-1.0_dp)
   !> (row, column) of the body-frame mobility behind mu11, mu22, mu33, mu42, mu51 (rows and
@@ -95,10 +95,12 @@ contains
     if (.not. err%failed) body_mobility = in_frame(mobility, transpose(axes))
   end subroutine mobility_in_frame
 
-  subroutine invert(friction, mobility, err)
+  !> mobility = friction^-1 (any 6x6 matrix; `what` names it in the error, default the friction).
+  subroutine invert(friction, mobility, err, what)
     real(dp), intent(in) :: friction(6, 6)
     real(dp), intent(out) :: mobility(6, 6)
     type(error_t), intent(inout) :: err
+    character(len=*), intent(in), optional :: what
     real(dp) :: work(6, 6)
     integer :: pivots(6), info, k
     work = friction
@@ -107,7 +109,9 @@ contains
       mobility(k, k) = 1.0_dp
     end do
     call dgesv(6, 6, work, 6, pivots, mobility, 6, info)
-    if (info /= 0) call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
+    if (info /= 0 .and. present(what)) call raise(err, what // ' is singular (LAPACK dgesv info = ' // str(info) // ')')
+    if (info /= 0 .and. .not. present(what)) &
+      call raise(err, 'the 6x6 friction matrix is singular (LAPACK dgesv info = ' // str(info) // ')')
   end subroutine invert
 
   !> Moving the reference point by d: M(P) = A M A^T, A = [[I, -[d]x], [0, I]] (U_P = U_O + Omega x d,
