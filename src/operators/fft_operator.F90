@@ -37,6 +37,10 @@ module beadmob_fft_operator
   use, intrinsic :: iso_c_binding
   use beadmob_kinds, only: dp, i8
   use, intrinsic :: iso_fortran_env, only: error_unit
+  use beadmob_fftw
+  use beadmob_pruned_transform, only: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, &
+                                      transform_forward, transform_backward, transform_whole, free_whole_plan, &
+                                      destroy_pruned_transform
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
@@ -51,94 +55,8 @@ module beadmob_fft_operator
                                    fft_seconds, multiply_seconds, transpose_fraction, transform_bytes
   implicit none
   private
-  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion, fft_cost, &
-            fft_box_of_spans
+  public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion, fft_cost
 
-  ! The part of FFTW's Fortran 2003 MPI interface used here, with the names, C symbols and
-  ! argument types of /usr/include/fftw3-mpi.f03 and fftw3.f03 (FFTW 3 ABI). That header is not
-  ! included because gfortran's INCLUDE (and cpp) does not find its nested include 'fftw3.f03'
-  ! without an -I for the FFTW include directory, which the build does not pass.
-  integer(C_INT), parameter :: FFTW_MEASURE = 0, FFTW_ESTIMATE = 64, FFTW_WISDOM_ONLY = 2097152
-  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_IN = 536870912
-  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_OUT = 1073741824
-  integer(C_INTPTR_T), parameter :: FFTW_MPI_DEFAULT_BLOCK = 0
-
-  interface
-    subroutine fftw_mpi_init() bind(C, name='fftw_mpi_init')
-    end subroutine fftw_mpi_init
-    integer(C_INTPTR_T) function fftw_mpi_local_size_many_transposed(rnk, n, howmany, block0, block1, comm, &
-                                                                     local_n0, local_0_start, local_n1, local_1_start) &
-      bind(C, name='fftw_mpi_local_size_many_transposed_f03')
-      import :: C_INT, C_INTPTR_T, C_INT32_T
-      integer(C_INT), value :: rnk
-      integer(C_INTPTR_T), dimension(*), intent(in) :: n
-      integer(C_INTPTR_T), value :: howmany, block0, block1
-      integer(C_INT32_T), value :: comm
-      integer(C_INTPTR_T), intent(out) :: local_n0, local_0_start, local_n1, local_1_start
-    end function fftw_mpi_local_size_many_transposed
-    type(C_PTR) function fftw_mpi_plan_many_dft_r2c(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
-      bind(C, name='fftw_mpi_plan_many_dft_r2c_f03')
-      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
-      integer(C_INT), value :: rnk
-      integer(C_INTPTR_T), dimension(*), intent(in) :: n
-      integer(C_INTPTR_T), value :: howmany, iblock, oblock
-      real(C_DOUBLE), dimension(*), intent(out) :: in
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
-      integer(C_INT32_T), value :: comm
-      integer(C_INT), value :: flags
-    end function fftw_mpi_plan_many_dft_r2c
-    type(C_PTR) function fftw_mpi_plan_many_dft_c2r(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
-      bind(C, name='fftw_mpi_plan_many_dft_c2r_f03')
-      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
-      integer(C_INT), value :: rnk
-      integer(C_INTPTR_T), dimension(*), intent(in) :: n
-      integer(C_INTPTR_T), value :: howmany, iblock, oblock
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: in
-      real(C_DOUBLE), dimension(*), intent(out) :: out
-      integer(C_INT32_T), value :: comm
-      integer(C_INT), value :: flags
-    end function fftw_mpi_plan_many_dft_c2r
-    subroutine fftw_mpi_execute_dft_r2c(p, in, out) bind(C, name='fftw_mpi_execute_dft_r2c')
-      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
-      type(C_PTR), value :: p
-      real(C_DOUBLE), dimension(*), intent(inout) :: in
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
-    end subroutine fftw_mpi_execute_dft_r2c
-    subroutine fftw_mpi_execute_dft_c2r(p, in, out) bind(C, name='fftw_mpi_execute_dft_c2r')
-      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
-      type(C_PTR), value :: p
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(inout) :: in
-      real(C_DOUBLE), dimension(*), intent(out) :: out
-    end subroutine fftw_mpi_execute_dft_c2r
-    integer(C_INT) function fftw_import_wisdom_from_filename(path) bind(C, name='fftw_import_wisdom_from_filename')
-      import :: C_INT, C_CHAR
-      character(kind=C_CHAR), dimension(*), intent(in) :: path
-    end function fftw_import_wisdom_from_filename
-    integer(C_INT) function fftw_export_wisdom_to_filename(path) bind(C, name='fftw_export_wisdom_to_filename')
-      import :: C_INT, C_CHAR
-      character(kind=C_CHAR), dimension(*), intent(in) :: path
-    end function fftw_export_wisdom_to_filename
-    subroutine fftw_mpi_broadcast_wisdom(comm) bind(C, name='fftw_mpi_broadcast_wisdom_f03')
-      import :: C_INT32_T
-      integer(C_INT32_T), value :: comm
-    end subroutine fftw_mpi_broadcast_wisdom
-    subroutine fftw_mpi_gather_wisdom(comm) bind(C, name='fftw_mpi_gather_wisdom_f03')
-      import :: C_INT32_T
-      integer(C_INT32_T), value :: comm
-    end subroutine fftw_mpi_gather_wisdom
-    subroutine fftw_destroy_plan(p) bind(C, name='fftw_destroy_plan')
-      import :: C_PTR
-      type(C_PTR), value :: p
-    end subroutine fftw_destroy_plan
-    type(C_PTR) function fftw_alloc_real(n) bind(C, name='fftw_alloc_real')
-      import :: C_PTR, C_SIZE_T
-      integer(C_SIZE_T), value :: n
-    end function fftw_alloc_real
-    subroutine fftw_free(p) bind(C, name='fftw_free')
-      import :: C_PTR
-      type(C_PTR), value :: p
-    end subroutine fftw_free
-  end interface
 
   !> The MATSHELL context: kernel, plans, buffer and scatter, set once.
   type, extends(multipole_operator_t) :: fft_operator_t
@@ -153,22 +71,24 @@ module beadmob_fft_operator
     !> remembered between runs in FFTW wisdom next to the table cache (<cache file>.fftw_wisdom;
     !> none without a cache): a later run on the same box plans at once (plans_from_wisdom).
     logical :: measure_plans = .true.
-    integer(C_INTPTR_T) :: slab_planes = 0  ! real space: this rank's planes of the slow dimension
-    integer(C_INTPTR_T) :: slab_start = 0
-    integer(i8) :: n_frequencies = 0        ! frequencies (of all fields' one) on this rank
+    !> The pruned transforms of the nb fields (pruned_transform.f90): buffer, plans, this rank's
+    !> data planes and frequencies
+    type(pruned_transform_t) :: transform
     integer :: n_even = 0                   ! unknowns of even parity (slots 1..n_even)
     integer, allocatable :: slot(:)         ! field slot of each unknown
+    !> Sign of each slot's field under the mirror of the slow FFT axis, D = diag(mirror_sign):
+    !> K^ at the mirrored frequency (k_slow -> -k_slow) is D K^ D, so the kernel is kept for
+    !> k_slow <= n_slow / 2 only (module header).
+    real(dp), allocatable :: mirror_sign(:)
     !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
-    !> for this rank's frequencies: the real part, or for an even-odd entry the imaginary part.
+    !> for this rank's frequencies with k_slow <= n_slow / 2 ([lines][n_slow/2 + 1][n_fast/2 + 1]):
+    !> the real part, or for an even-odd entry the imaginary part.
     real(dp), allocatable :: kernel(:, :)
     !> A companion (create_fft_companion) holds no kernel of its own: it reads its entries from
     !> its parent's, entry e of its packed triangle being kernel_map(e) of the parent's.
     real(dp), pointer, contiguous :: shared_kernel(:, :) => null()
     integer, allocatable :: kernel_map(:)
-    type(C_PTR) :: buffer = C_NULL_PTR, forward = C_NULL_PTR, backward = C_NULL_PTR
-    real(C_DOUBLE), pointer, contiguous :: real_data(:) => null()
-    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
-    Vec :: slab          ! PETSc view of real_data (this rank's real-space slab)
+    Vec :: slab          ! PETSc view of transform%slab (this rank's data planes)
     VecScatter :: to_slab
     logical :: created = .false.
   contains
@@ -241,46 +161,84 @@ contains
 
   !> multipole_operator_t%cost (docs/scaling.md lists the terms): the canonical blocks (freed
   !> once the kernel is transformed), the packed kernel of this rank's frequencies, the FFT buffer
-  !> of its slab and FFTW-MPI's transposes; the companion's buffer. Time: quadrature per canonical
-  !> block, kernel fill per site and entry, the kernel's transforms; per product two transforms
-  !> of nb fields and the kernel product.
+  !> (spectrum and data planes, pruned_transform.f90) and FFTW-MPI's transposes; the companion's
+  !> buffer. Time: quadrature per canonical block, kernel fill per site and entry, the kernel's
+  !> whole transforms; per product the two pruned transforms of nb fields and the kernel product.
   pure subroutine fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, sites, real_planes, freq_planes, frequencies, log_sites
+    real(dp) :: nb, packed, sites, real_planes, freq_planes, data_planes, frequencies, half, log_sites, pruned
+    integer :: data(3)
     nb = size%nb
     packed = nb * (nb + 1) / 2
     cost%canonical_blocks = canonical_blocks_of(size%spans)
     cost%transient = 8 * nb**2 * cost%canonical_blocks + transform_bytes(size)
-    cost%fft_box = fft_box_of_spans(size%spans)
+    call fft_box_and_data(size%spans, cost%fft_box, data)
     sites = product(real(cost%fft_box, dp))
     log_sites = log(sites) / log(2.0_dp)
+    ! Per field, the flops of the pruned transform in units of a site's log2 (module header of
+    ! pruned_transform.f90): the fast axis on the data rows, the middle on the data planes, the slow whole.
+    pruned = (real(data(3), dp) * data(2) * cost%fft_box(1) * log(real(cost%fft_box(1), dp)) &
+              + real(data(3), dp) * cost%fft_box(2) * cost%fft_box(1) * log(real(cost%fft_box(2), dp)) &
+              + sites * log(real(cost%fft_box(3), dp))) / log(2.0_dp)
     ! FFTW slabs: real space split along the slow axis, the transposed spectrum along the middle one.
+    half = cost%fft_box(1) / 2 + 1
     real_planes = real(ceiling(real(cost%fft_box(3), dp) / size%n_ranks), dp)
+    data_planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     freq_planes = real(ceiling(real(cost%fft_box(2), dp) / size%n_ranks), dp)
-    frequencies = freq_planes * cost%fft_box(3) * (cost%fft_box(1) / 2 + 1)
-    cost%kernel = 8 * packed * frequencies
-    cost%fft_buffer = 16 * nb * max(frequencies, real_planes * cost%fft_box(2) * (cost%fft_box(1) / 2 + 1))
+    frequencies = freq_planes * cost%fft_box(3) * half
+    cost%kernel = 8 * packed * freq_planes * (cost%fft_box(3) / 2 + 1) * half   ! k_slow <= n_slow / 2
+    cost%fft_buffer = 16 * nb * max(frequencies, real_planes * cost%fft_box(2) * half, &
+                                    (freq_planes * data(3) + data_planes * cost%fft_box(2)) * half)
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     cost%companion = cost%fft_buffer * size%nb_low / nb * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
     cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
                          + (fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
                           + ceiling(packed / nb) * fft_seconds * nb * sites * log_sites) / size%n_ranks
-    cost%seconds_product = (2 * fft_seconds * nb * sites * log_sites + multiply_seconds * packed * sites / 2) / size%n_ranks
-    cost%seconds_low_product = (2 * fft_seconds * size%nb_low * sites * log_sites &
+    cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks
+    cost%seconds_low_product = (2 * fft_seconds * size%nb_low * pruned &
                                 + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
   end subroutine fft_cost
 
-  !> The padded FFT box (fast, middle, slow axis: increasing sizes) of a bead set whose lattice
-  !> spans are `spans` (as plan_transforms chooses it).
-  pure function fft_box_of_spans(spans) result(box)
+  !> The padded box and the data box (span + 1 sites) in the FFT's axis order, as plan_transforms
+  !> lays them (the axes sorted by padded size, the first of equal ones first).
+  pure subroutine fft_box_and_data(spans, box, data)
     integer, intent(in) :: spans(3)
-    integer :: box(3), padded(3), a
+    integer, intent(out) :: box(3), data(3)
+    integer :: axes(3)
+    axes = fft_axes(spans)
+    box = fft_padded(spans(axes))
+    data = spans(axes) + 1
+  end subroutine fft_box_and_data
+
+  !> The lattice axes in FFT order: the largest padded axis is the slab (slow) axis and the next
+  !> the Fourier-space slab axis, the most planes to split over ranks; the fast axis is halved by
+  !> the r2c transform.
+  pure function fft_axes(spans) result(axes)
+    integer, intent(in) :: spans(3)
+    integer :: axes(3), padded(3), a, b, swap
+    padded = fft_padded(spans)
+    axes = [1, 2, 3]
+    do a = 1, 2
+      do b = 1, 3 - a
+        if (padded(axes(b)) > padded(axes(b + 1))) then
+          swap = axes(b)
+          axes(b) = axes(b + 1)
+          axes(b + 1) = swap
+        end if
+      end do
+    end do
+  end function fft_axes
+
+  !> Padded sizes of the given spans: at least 2 (FFTW's MPI planner returned no plan for a size-1
+  !> dimension of flat or straight bead sets; 2 >= 2 span + 1 keeps the convolution exact).
+  pure function fft_padded(spans) result(padded)
+    integer, intent(in) :: spans(3)
+    integer :: padded(3), a
     do a = 1, 3
       padded(a) = fft_size(max(2 * spans(a) + 1, 2))
     end do
-    box = [minval(padded), sum(padded) - minval(padded) - maxval(padded), maxval(padded)]
-  end function fft_box_of_spans
+  end function fft_padded
 
   subroutine destroy_fft(this)
     class(fft_operator_t), intent(inout) :: this
@@ -347,9 +305,11 @@ contains
                                              ' read from the cache (' // progress_seconds(MPI_Wtime() - start) // ' s)')
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
-    if (.not. err%failed) call plan_transforms(comm, op, err)
+    if (.not. err%failed) call plan_transforms(comm, op, .true., err)
+    if (.not. err%failed) call find_mirror_signs(op, err)
     if (.not. err%failed) call transform_kernel(op, err, reporting, start)
     call free_canonical_blocks(op%table)   ! the kernel holds them now
+    call free_whole_plan(op%transform)
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) then
@@ -400,6 +360,7 @@ contains
       companion%slot(a) = count(parent_slot <= parent_slot(a))
       slot_parent(companion%slot(a)) = parent_slot(a)
     end do
+    companion%mirror_sign = parent%mirror_sign(slot_parent)
     allocate (companion%kernel_map(size(unknowns) * (size(unknowns) + 1) / 2))
     do t = 1, size(unknowns)
       do s = 1, t
@@ -408,9 +369,9 @@ contains
         companion%kernel_map(s + t * (t - 1) / 2) = ps + pt * (pt - 1) / 2
       end do
     end do
-    call plan_transforms(comm, companion, err)
+    call plan_transforms(comm, companion, .false., err)
     ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
-    if (.not. err%failed .and. companion%n_frequencies /= parent%n_frequencies) &
+    if (.not. err%failed .and. companion%transform%n_frequencies /= parent%transform%n_frequencies) &
       call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
     companion%shared_kernel => parent%kernel
     call finish_shell(comm, companion, matrix, err, .false.)
@@ -464,14 +425,7 @@ contains
 
   subroutine free_fftw(op)
     type(fft_operator_t), intent(inout) :: op
-    if (c_associated(op%forward)) call fftw_destroy_plan(op%forward)
-    if (c_associated(op%backward)) call fftw_destroy_plan(op%backward)
-    if (c_associated(op%buffer)) call fftw_free(op%buffer)
-    op%forward = C_NULL_PTR
-    op%backward = C_NULL_PTR
-    op%buffer = C_NULL_PTR
-    op%real_data => null()
-    op%spectrum => null()
+    call destroy_pruned_transform(op%transform)
   end subroutine free_fftw
 
   !> Every centre within lattice_tolerance of a point of the unit lattice through the lowest corner
@@ -569,6 +523,42 @@ contains
                  ' relative')
   end subroutine check_symmetries
 
+  !> mirror_sign: D_M of the mirror M of the slow FFT axis (a lattice symmetry, T4) is diagonal in
+  !> the real basis, ±1 per unknown (cos and sin of m phi, and the (n + m) parity along z, keep or
+  !> flip their sign); A(M d) = D_M A(d) D_M gives K^ at the mirrored frequency as D K^ D. Refused
+  !> if the table's D_M is not such a diagonal (a basis without that structure).
+  subroutine find_mirror_signs(op, err)
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    integer :: mirror, a
+    real(dp), parameter :: tolerance = 1.0e-10_dp
+    if (.not. allocated(op%table%transforms)) then
+      call raise(err, 'internal error: the FFT operator needs the lattice symmetries of its block table')
+      return
+    end if
+    mirror = 1 + 2**(op%axes(3) - 1)   ! identity permutation, the slow axis' sign flipped (symmetry_matrix)
+    allocate (op%mirror_sign(op%block_size))
+    associate (d => op%table%transforms(:, :, mirror))
+      do a = 1, op%block_size
+        op%mirror_sign(op%slot(a)) = sign(1.0_dp, d(a, a))
+      end do
+      if (maxval(abs(abs(d) - identity(op%block_size))) > tolerance) &
+        call raise(err, 'the FFT operator needs a basis that a mirror of the lattice maps onto ± itself; the ' // &
+                   'mirror of lattice axis ' // str(op%axes(3)) // ' mixes its functions by ' // &
+                   str(maxval(abs(abs(d) - identity(op%block_size)))))
+    end associate
+  end subroutine find_mirror_signs
+
+  pure function identity(n) result(matrix)
+    integer, intent(in) :: n
+    real(dp) :: matrix(n, n)
+    integer :: k
+    matrix = 0.0_dp
+    do k = 1, n
+      matrix(k, k) = 1.0_dp
+    end do
+  end function identity
+
   !> The compact table is needed only until the kernel is transformed.
   subroutine free_canonical_blocks(table)
     type(block_table_t), intent(inout) :: table
@@ -577,63 +567,40 @@ contains
     if (allocated(table%blocks)) deallocate (table%blocks)
   end subroutine free_canonical_blocks
 
-  !> Padded box, axis order, FFTW slabs, the aligned buffer and the two in-place plans.
-  subroutine plan_transforms(comm, op, err)
+  !> Padded box, axis order, the pruned transforms' slabs, buffer and plans (pruned_transform.f90),
+  !> and with `whole` FFTW-MPI's whole r2c plan for the kernel.
+  subroutine plan_transforms(comm, op, whole, err)
     MPI_Comm, intent(in) :: comm
     type(fft_operator_t), intent(inout) :: op
+    logical, intent(in) :: whole
     type(error_t), intent(inout) :: err
-    integer :: padded(3), a, b, swap
-    integer(C_INTPTR_T) :: c_order(3), complex_shape(3), howmany, alloc_local, freq_planes, freq_start
+    integer :: failed
     integer(C_INT) :: planner
     real(dp) :: entries
+    logical :: made
     character(len=:), allocatable :: wisdom_file
+    PetscErrorCode :: ierr
 
     if (.not. fftw_mpi_started) then
       call fftw_mpi_init()
       fftw_mpi_started = .true.
     end if
-    ! At least 2: FFTW's MPI planner returned no plan for a size-1 dimension (flat or straight
-    ! bead sets); 2 >= 2 span + 1 keeps the convolution exact.
-    do a = 1, 3
-      padded(a) = fft_size(max(2 * op%table%span(a) + 1, 2))
-    end do
-    ! The largest padded axis is the slab (slow) axis and the next the Fourier-space slab axis:
-    ! the most planes to split over ranks. The fast axis is halved by the r2c transform.
-    op%axes = [1, 2, 3]
-    do a = 1, 2
-      do b = 1, 3 - a
-        if (padded(op%axes(b)) > padded(op%axes(b + 1))) then
-          swap = op%axes(b)
-          op%axes(b) = op%axes(b + 1)
-          op%axes(b + 1) = swap
-        end if
-      end do
-    end do
-    op%box = padded(op%axes)
-    c_order = [integer(C_INTPTR_T) :: op%box(3), op%box(2), op%box(1)]
-    complex_shape = [c_order(1), c_order(2), c_order(3) / 2 + 1]
-    howmany = op%block_size
-    alloc_local = fftw_mpi_local_size_many_transposed(3, complex_shape, howmany, FFTW_MPI_DEFAULT_BLOCK, &
-                                                      FFTW_MPI_DEFAULT_BLOCK, comm, op%slab_planes, op%slab_start, &
-                                                      freq_planes, freq_start)
-    op%n_frequencies = int(freq_planes, i8) * c_order(1) * complex_shape(3)
-    ! PETSc's 32-bit indices address the slab vector (nb doubles per padded site).
-    entries = real(op%block_size, dp) * real(c_order(1), dp) * real(c_order(2), dp) * 2 * complex_shape(3)
+    op%axes = fft_axes(op%table%span)
+    op%box = fft_padded(op%table%span(op%axes))
+    ! PETSc's 32-bit indices address the vector of the data planes (nb doubles per padded site).
+    entries = real(op%block_size, dp) * 2 * (op%box(1) / 2 + 1) * op%box(2) * op%box(3)
     if (entries > real(huge(1_C_INT), dp)) then
       call raise(err, 'the padded FFT box ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // str(op%box(3)) // &
                  ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
       return
     end if
-    alloc_local = max(alloc_local, howmany)   ! a rank without planes still gets a valid buffer
-    op%buffer = fftw_alloc_real(int(2 * alloc_local, C_SIZE_T))
-    if (.not. c_associated(op%buffer)) then
-      call raise(err, 'could not allocate the FFT buffer (' // str(16.0_dp * alloc_local / 1.0e9_dp) // ' GB)')
+    call size_pruned_transform(comm, op%block_size, op%box, op%table%span(op%axes) + 1, op%transform, err)
+    failed = merge(1, 0, err%failed)
+    call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed /= 0) then
+      if (.not. err%failed) call raise(err, 'the FFT buffer could not be allocated on another rank')
       return
     end if
-    call c_f_pointer(op%buffer, op%real_data, [2 * alloc_local])
-    call c_f_pointer(op%buffer, op%spectrum, [int(howmany, i8), max(op%n_frequencies, 1_i8)])
-    ! In place: the real slab and its spectrum share the buffer (which FFTW_MEASURE overwrites
-    ! while planning: nothing is in it yet).
     planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
     wisdom_file = ''
     if (op%measure_plans .and. allocated(op%table%cache_file)) then
@@ -643,34 +610,16 @@ contains
     if (len(wisdom_file) > 0) then
       ! Plans from remembered wisdom only (FFTW_WISDOM_ONLY: no plan if the box is new to it).
       call recall_wisdom(comm, wisdom_file)
-      call make_plans(ior(planner, FFTW_WISDOM_ONLY))
-      op%plans_from_wisdom = c_associated(op%forward) .and. c_associated(op%backward)
-      if (.not. op%plans_from_wisdom) call free_plans()
+      call make_pruned_plans(comm, op%transform, ior(planner, FFTW_WISDOM_ONLY), whole, op%plans_from_wisdom)
     end if
-    if (.not. op%plans_from_wisdom) call make_plans(planner)
-    if (.not. (c_associated(op%forward) .and. c_associated(op%backward))) then
+    made = op%plans_from_wisdom
+    if (.not. made) call make_pruned_plans(comm, op%transform, planner, whole, made)
+    if (.not. made) then
       call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
                  str(op%box(3)) // ' transforms')
     else if (len(wisdom_file) > 0 .and. .not. op%plans_from_wisdom) then
       call remember_wisdom(comm, wisdom_file)
     end if
-
-  contains
-
-    subroutine make_plans(flags)
-      integer(C_INT), intent(in) :: flags
-      op%forward = fftw_mpi_plan_many_dft_r2c(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
-                                              op%real_data, op%spectrum, comm, ior(flags, FFTW_MPI_TRANSPOSED_OUT))
-      op%backward = fftw_mpi_plan_many_dft_c2r(3, c_order, howmany, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
-                                               op%spectrum, op%real_data, comm, ior(flags, FFTW_MPI_TRANSPOSED_IN))
-    end subroutine make_plans
-
-    subroutine free_plans()
-      if (c_associated(op%forward)) call fftw_destroy_plan(op%forward)
-      if (c_associated(op%backward)) call fftw_destroy_plan(op%backward)
-      op%forward = C_NULL_PTR
-      op%backward = C_NULL_PTR
-    end subroutine free_plans
   end subroutine plan_transforms
 
   !> Collective. Rank 0 reads the wisdom file (missing: nothing; unreadable: a warning) and every
@@ -710,8 +659,9 @@ contains
     end if
   end subroutine remember_wisdom
 
-  !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through the
-  !> operator's own plan (no extra plan; the transient memory is the one buffer). Each rank forms
+  !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through FFTW-MPI's
+  !> whole plan on the operator's buffer (the kernel fills the whole box: nothing to prune; the
+  !> transient memory is the one buffer). Its spectrum is laid out as the pruned one. Each rank forms
   !> the entries of its own slab's sites from the compact block table (lattice_block_entries),
   !> so the real-space kernel is never held whole on any rank.
   subroutine transform_kernel(op, err, reporting, start)
@@ -722,16 +672,17 @@ contains
     integer :: nb, n_packed, batch, n_batches, c, e, i, j, k, s, t, d(3), first, last, stat
     integer, allocatable :: row(:), column(:), unknown(:)
     logical, allocatable :: odd(:)
-    integer(i8) :: site, f
+    integer(i8) :: site, f, g, kept, line, slow, fast
     real(dp) :: scale
     logical :: inside
 
     nb = op%block_size
     n_packed = nb * (nb + 1) / 2
-    allocate (op%kernel(n_packed, max(op%n_frequencies, 1_i8)), stat=stat)
+    kept = op%transform%lines * (op%box(3) / 2 + 1) * op%transform%half
+    allocate (op%kernel(n_packed, max(kept, 1_i8)), stat=stat)
     if (stat /= 0) then
-      call raise(err, 'could not allocate the FFT kernel (' // &
-                 str(8.0_dp * n_packed * op%n_frequencies / 1.0e9_dp) // ' GB on this rank)')
+      call raise(err, 'could not allocate the FFT kernel (' // str(8.0_dp * n_packed * kept / 1.0e9_dp) // &
+                 ' GB on this rank)')
       return
     end if
     ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t.
@@ -753,31 +704,39 @@ contains
 
     n_batches = (n_packed - 1) / nb + 1
     do batch = 0, n_batches - 1
-      op%real_data = 0.0_dp
-      do k = 0, int(op%slab_planes) - 1
+      op%transform%whole_slab = 0.0_dp
+      do k = 0, int(op%transform%whole_planes) - 1
         do j = 0, op%box(2) - 1
           do i = 0, op%box(1) - 1
-            call displacement_at([i, j, int(op%slab_start) + k], d, inside)
+            call displacement_at([i, j, int(op%transform%whole_first_plane) + k], d, inside)
             if (.not. inside) cycle
             site = padded_site(op, i, j, k)
             first = batch * nb + 1
             last = min(batch * nb + nb, n_packed)
             call lattice_block_entries(op%table, d, row(first:last), column(first:last), &
-                                       op%real_data(site * nb + 1:site * nb + last - first + 1))
+                                       op%transform%whole_slab(site * nb + 1:site * nb + last - first + 1))
           end do
         end do
       end do
-      call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
+      call transform_whole(op%transform)
       ! Even entries have a real transform, odd (even-odd slot) ones an imaginary one; the
-      ! other part is rounding. Frequency-outer: contiguous writes into the kernel.
-      do f = 1, op%n_frequencies
-        do c = 1, min(nb, n_packed - batch * nb)
-          e = batch * nb + c
-          if (odd(e)) then
-            op%kernel(e, f) = scale * aimag(op%spectrum(c, f))
-          else
-            op%kernel(e, f) = scale * real(op%spectrum(c, f), dp)
-          end if
+      ! other part is rounding. The frequencies k_slow <= n_slow / 2 (the others follow by the
+      ! mirror), frequency-outer: contiguous writes into the kernel.
+      g = 0
+      do line = 0, op%transform%lines - 1
+        do slow = 0, op%box(3) / 2
+          do fast = 0, op%transform%half - 1
+            f = 1 + fast + op%transform%half * (slow + op%box(3) * line)
+            g = g + 1
+            do c = 1, min(nb, n_packed - batch * nb)
+              e = batch * nb + c
+              if (odd(e)) then
+                op%kernel(e, g) = scale * aimag(op%transform%spectrum(c, f))
+              else
+                op%kernel(e, g) = scale * real(op%transform%spectrum(c, f), dp)
+              end if
+            end do
+          end do
         end do
       end do
       ! About every quarter of the batches.
@@ -811,8 +770,8 @@ contains
     end subroutine displacement_at
   end subroutine transform_kernel
 
-  !> 0-based index of padded site (i, j, k) in this rank's real slab (k counted from the slab
-  !> start); the fast dimension has 2 (n/2 + 1) slots (FFTW's in-place r2c padding).
+  !> 0-based index of padded site (i, j, k) in this rank's real slab: its data planes, or the whole
+  !> box's planes for the kernel (k counted from the slab's first plane); the fast dimension has 2 (n/2 + 1) slots (FFTW's in-place r2c padding).
   pure integer(i8) function padded_site(op, i, j, k)
     type(fft_operator_t), intent(in) :: op
     integer, intent(in) :: i, j, k
@@ -836,14 +795,17 @@ contains
     integer(i8), allocatable :: all_info(:, :)
     IS :: from, to
     Vec :: template
+    real(C_DOUBLE), pointer :: data_planes(:)
 
     nb = op%block_size
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, n_ranks, ierr)
-    slab_length = int(nb * padded_site(op, 0, 0, int(op%slab_planes)))
-    PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, op%real_data, op%slab, ierr))
+    slab_length = int(nb * padded_site(op, 0, 0, int(op%transform%planes)))
+    ! From the data planes' place in the buffer (a rank without planes has a valid address too).
+    data_planes => op%transform%all(op%transform%slab_offset + 1:)
+    PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, data_planes, op%slab, ierr))
     PetscCallA(VecGetOwnershipRange(op%slab, vector_start, vector_end, ierr))
-    info = [int(vector_start, i8), int(op%slab_start, i8), int(op%slab_planes, i8)]
+    info = [int(vector_start, i8), int(op%transform%first_plane, i8), int(op%transform%planes, i8)]
     allocate (all_info(3, 0:n_ranks - 1))
     call MPI_Allgather(info, 3, MPI_INTEGER8, all_info, 3, MPI_INTEGER8, comm, ierr)
 
@@ -891,7 +853,7 @@ contains
     nb = op%block_size
     ! Sites without a bead hold zero; the scatter fills the bead sites.
     PetscCall(VecGetArrayF90(op%slab, slab, ierr))
-    op%real_data = 0.0_dp
+    op%transform%slab = 0.0_dp
     PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
     PetscCall(VecScatterBegin(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
     PetscCall(VecScatterEnd(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
@@ -899,13 +861,13 @@ contains
     ! The FFTs write the array behind the PETSc vector: bracket them with Get/Restore so that
     ! PETSc's object state (cached norms etc.) knows.
     PetscCall(VecGetArrayF90(op%slab, slab, ierr))
-    call fftw_mpi_execute_dft_r2c(op%forward, op%real_data, op%spectrum)
+    call transform_forward(op%transform)
     if (associated(op%shared_kernel)) then
-      call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%shared_kernel, op%spectrum, op%kernel_map)
+      call multiply_spectrum(op, op%shared_kernel, op%transform%spectrum, op%kernel_map)
     else
-      call multiply_spectrum(nb, op%n_even, op%n_frequencies, op%kernel, op%spectrum)
+      call multiply_spectrum(op, op%kernel, op%transform%spectrum)
     end if
-    call fftw_mpi_execute_dft_c2r(op%backward, op%spectrum, op%real_data)
+    call transform_backward(op%transform)
     PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
 
     PetscCall(VecScatterBegin(op%to_slab, op%slab, y, INSERT_VALUES, SCATTER_REVERSE, ierr))
@@ -922,44 +884,67 @@ contains
     ierr = 0
   end subroutine apply_fft_operator
 
-  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f; K^(f) is kernel(:, f), or with
-  !> `map` (a companion) kernel(map, f), gathered into a fixed-size copy (no temporary per frequency).
-  pure subroutine multiply_spectrum(nb, n_even, n_frequencies, kernel, spectrum, map)
-    integer, intent(in) :: nb, n_even
-    integer(i8), intent(in) :: n_frequencies
+  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f. K^(f) is kernel(:, g) (or with
+  !> `map`, a companion, kernel(map, g), gathered into a fixed-size copy) at the kept frequency g
+  !> of f, times D on both sides where f is the mirror image of g (k_slow > n_slow / 2). A kept
+  !> frequency and its image are multiplied together: one pass over the kernel for both.
+  pure subroutine multiply_spectrum(op, kernel, spectrum, map)
+    type(fft_operator_t), intent(in) :: op
     real(dp), intent(in) :: kernel(:, :)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
     integer, intent(in), optional :: map(:)
-    real(dp) :: gathered(nb * (nb + 1) / 2)
-    integer(i8) :: f
-    if (present(map)) then
-      do f = 1, n_frequencies
-        gathered = kernel(map, f)
-        call multiply_frequency(nb, n_even, gathered, spectrum(:, f))
+    real(dp) :: gathered(op%block_size * (op%block_size + 1) / 2)
+    complex(C_DOUBLE_COMPLEX) :: alone(op%block_size)
+    integer(i8) :: g, f, image, line, slow, fast, n_slow, half
+    n_slow = op%box(3)
+    half = op%transform%half
+    g = 0
+    do line = 0, op%transform%lines - 1
+      do slow = 0, n_slow / 2
+        do fast = 0, half - 1
+          g = g + 1
+          if (present(map)) gathered = kernel(map, g)
+          f = 1 + fast + half * (slow + n_slow * line)
+          image = 1 + fast + half * (n_slow - slow + n_slow * line)
+          if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image
+            alone = 0
+            if (present(map)) then
+              call multiply_frequency(op%block_size, op%n_even, gathered, op%mirror_sign, spectrum(:, f), alone)
+            else
+              call multiply_frequency(op%block_size, op%n_even, kernel(:, g), op%mirror_sign, spectrum(:, f), alone)
+            end if
+          else if (present(map)) then
+            call multiply_frequency(op%block_size, op%n_even, gathered, op%mirror_sign, spectrum(:, f), &
+                                    spectrum(:, image))
+          else
+            call multiply_frequency(op%block_size, op%n_even, kernel(:, g), op%mirror_sign, spectrum(:, f), &
+                                    spectrum(:, image))
+          end if
+        end do
       end do
-    else
-      do f = 1, n_frequencies
-        call multiply_frequency(nb, n_even, kernel(:, f), spectrum(:, f))
-      end do
-    end if
+    end do
   end subroutine multiply_spectrum
 
-  !> x <- K^ x, K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper triangle `packed`
-  !> (module header), in real arithmetic: with K' = [R_ee, J_eo; J_eo^T, R_oo] (the packed numbers
-  !> themselves, real symmetric) and x = u + i v,
+  !> x <- K^ x and x' <- D K^ D x', K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper
+  !> triangle `packed` (module header) and D = diag(mirror), in real arithmetic: with
+  !> K' = [R_ee, J_eo; J_eo^T, R_oo] (the packed numbers themselves, real symmetric) and x = u + i v,
   !>   K' [u_e; -v_o] = [Re y_e; -Im y_o],   K' [v_e; u_o] = [Im y_e; Re y_o],
-  !> two real vectors through one pass over the triangle: column t gives w(:, s) += K'(s, t) z(:, t)
-  !> for s < t and, by symmetry, w(:, t) += K'(s, t) z(:, s).
-  pure subroutine multiply_frequency(nb, n_even, packed, spectrum)
+  !> and likewise for D x'; four real vectors through one pass over the triangle: column t gives
+  !> w(:, s) += K'(s, t) z(:, t) for s < t and, by symmetry, w(:, t) += K'(s, t) z(:, s).
+  pure subroutine multiply_frequency(nb, n_even, packed, mirror, spectrum, image)
     integer, intent(in) :: nb, n_even
-    real(dp), intent(in) :: packed(:)
-    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
-    real(dp) :: z(2, nb), w(2, nb), k_st, column_sum(2)
+    real(dp), intent(in) :: packed(:), mirror(:)
+    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:), image(:)
+    real(dp) :: z(4, nb), w(4, nb), k_st, column_sum(4)
     integer :: s, t, top
     z(1, 1:n_even) = real(spectrum(1:n_even), dp)
     z(2, 1:n_even) = aimag(spectrum(1:n_even))
     z(1, n_even + 1:nb) = -aimag(spectrum(n_even + 1:nb))
     z(2, n_even + 1:nb) = real(spectrum(n_even + 1:nb), dp)
+    z(3, 1:n_even) = mirror(1:n_even) * real(image(1:n_even), dp)
+    z(4, 1:n_even) = mirror(1:n_even) * aimag(image(1:n_even))
+    z(3, n_even + 1:nb) = -mirror(n_even + 1:nb) * aimag(image(n_even + 1:nb))
+    z(4, n_even + 1:nb) = mirror(n_even + 1:nb) * real(image(n_even + 1:nb), dp)
     w = 0.0_dp
     top = 0
     do t = 1, nb
@@ -974,5 +959,8 @@ contains
     end do
     spectrum(1:n_even) = cmplx(w(1, 1:n_even), w(2, 1:n_even), kind=C_DOUBLE_COMPLEX)
     spectrum(n_even + 1:nb) = cmplx(w(2, n_even + 1:nb), -w(1, n_even + 1:nb), kind=C_DOUBLE_COMPLEX)
+    image(1:n_even) = mirror(1:n_even) * cmplx(w(3, 1:n_even), w(4, 1:n_even), kind=C_DOUBLE_COMPLEX)
+    image(n_even + 1:nb) = mirror(n_even + 1:nb) * cmplx(w(4, n_even + 1:nb), -w(3, n_even + 1:nb), &
+                                                          kind=C_DOUBLE_COMPLEX)
   end subroutine multiply_frequency
 end module beadmob_fft_operator
