@@ -63,6 +63,9 @@ module beadmob_friction_settings
     !> FFTW planner of the FFT operators: 'measure' (faster products) or 'estimate' (bitwise
     !> reproducible from run to run)
     character(len=16) :: fft_planner = 'measure'
+    !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
+    !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
+    logical :: solve_apart = .false.
     !> Pairs within this distance (d) enter the near-field preconditioning matrix; with no pairs
     !> (radius < 1 and no clusters) the preconditioner is the single-bead PCSHELL instead.
     real(dp) :: near_field_radius = 0.0_dp

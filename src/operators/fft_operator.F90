@@ -38,6 +38,7 @@ module beadmob_fft_operator
   use beadmob_kinds, only: dp, i8
   use, intrinsic :: iso_fortran_env, only: error_unit
   use beadmob_fftw
+  use beadmob_lapack, only: dgemm
   use beadmob_pruned_transform, only: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, &
                                       transform_forward, transform_backward, transform_whole, free_whole_plan, &
                                       destroy_pruned_transform
@@ -91,12 +92,28 @@ module beadmob_fft_operator
     Vec :: slab          ! PETSc view of transform%slab (this rank's data planes)
     VecScatter :: to_slab
     logical :: created = .false.
+    MPI_Comm :: comm
+    !> Further copies of the transform for products of several vectors at once (apply_many),
+    !> made on the first such product: the kernel is streamed once for all of them. At most
+    !> max_copies in all, fewer where their buffers would cost more memory than the kernel.
+    type(pruned_transform_t), allocatable :: copies(:)
+    Vec, allocatable :: copy_slabs(:)
   contains
     procedure :: create => create_fft
     procedure :: create_companion => fft_companion
     procedure :: destroy => destroy_fft
+    procedure :: apply_many => apply_fft_many
+    procedure :: free_batches => free_copies
     procedure, nopass :: cost => fft_cost
   end type fft_operator_t
+
+  !> Vectors one batched product transforms at most (the motions of a job).
+  integer, parameter :: max_copies = 6
+
+  !> One spectrum of a batched product.
+  type :: spectrum_ref_t
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: values(:, :) => null()
+  end type spectrum_ref_t
 
   !> fftw_mpi_init once per process (a second call would be harmless but is not promised).
   logical, save :: fftw_mpi_started = .false.
@@ -399,6 +416,7 @@ contains
       return
     end if
 
+    op%comm = comm
     local_size = int(op%n_local * op%block_size)
     global_size = int(op%n_beads * op%block_size)
     PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, matrix, ierr))
@@ -418,6 +436,7 @@ contains
       PetscCallA(MatDestroy(matrix, ierr))
       op%created = .false.
     end if
+    call free_copies(op)
     call free_fftw(op)
     if (allocated(op%kernel)) deallocate (op%kernel)
     op%shared_kernel => null()
@@ -845,57 +864,168 @@ contains
     Vec :: x, y
     PetscErrorCode :: ierr
     type(fft_operator_t), pointer :: op
-    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
-    integer(i8) :: i, row
-    integer :: nb
-
     PetscCall(MatShellGetContext(matrix, op, ierr))
-    nb = op%block_size
-    ! Sites without a bead hold zero; the scatter fills the bead sites.
-    PetscCall(VecGetArrayF90(op%slab, slab, ierr))
-    op%transform%slab = 0.0_dp
-    PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
-    PetscCall(VecScatterBegin(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCall(VecScatterEnd(op%to_slab, x, op%slab, INSERT_VALUES, SCATTER_FORWARD, ierr))
-
-    ! The FFTs write the array behind the PETSc vector: bracket them with Get/Restore so that
-    ! PETSc's object state (cached norms etc.) knows.
-    PetscCall(VecGetArrayF90(op%slab, slab, ierr))
-    call transform_forward(op%transform)
-    if (associated(op%shared_kernel)) then
-      call multiply_spectrum(op, op%shared_kernel, op%transform%spectrum, op%kernel_map)
-    else
-      call multiply_spectrum(op, op%kernel, op%transform%spectrum)
-    end if
-    call transform_backward(op%transform)
-    PetscCall(VecRestoreArrayF90(op%slab, slab, ierr))
-
-    PetscCall(VecScatterBegin(op%to_slab, op%slab, y, INSERT_VALUES, SCATTER_REVERSE, ierr))
-    PetscCall(VecScatterEnd(op%to_slab, op%slab, y, INSERT_VALUES, SCATTER_REVERSE, ierr))
-
-    PetscCall(VecGetArrayReadF90(x, local_x, ierr))
-    PetscCall(VecGetArrayF90(y, local_y, ierr))
-    do i = 1, op%n_local
-      row = (i - 1) * nb
-      local_y(row + 1:row + nb) = local_y(row + 1:row + nb) + matmul(op%self_block, local_x(row + 1:row + nb))
-    end do
-    PetscCall(VecRestoreArrayF90(y, local_y, ierr))
-    PetscCall(VecRestoreArrayReadF90(x, local_x, ierr))
+    call batched_product(op, [x], [y])
     ierr = 0
   end subroutine apply_fft_operator
 
-  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f. K^(f) is kernel(:, g) (or with
-  !> `map`, a companion, kernel(map, g), gathered into a fixed-size copy) at the kept frequency g
-  !> of f, times D on both sides where f is the mirror image of g (k_slow > n_slow / 2). A kept
-  !> frequency and its image are multiplied together: one pass over the kernel for both.
-  pure subroutine multiply_spectrum(op, kernel, spectrum, map)
+  !> multipole_operator_t%apply_many: y(j) = A x(j), as many at once as there are copies of the
+  !> transform (made on the first call, collective).
+  subroutine apply_fft_many(this, x, y)
+    class(fft_operator_t), target, intent(inout) :: this
+    Vec, intent(in) :: x(:)
+    Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
+    integer :: first, batch
+    if (.not. allocated(this%copies)) call make_copies(this, size(x))
+    batch = 1 + size(this%copies)
+    do first = 1, size(x), batch
+      call batched_product(this, x(first:min(first + batch - 1, size(x))), y(first:min(first + batch - 1, size(y))))
+    end do
+  end subroutine apply_fft_many
+
+  !> Collective. Copies of the transform (plans, buffer, the PETSc view of its data planes) for
+  !> batched products of up to `wanted` vectors: max_copies at most, and no more than the memory of
+  !> the kernel (or 256 MiB) allows, so a large job keeps its memory per rank.
+  subroutine make_copies(op, wanted)
+    type(fft_operator_t), target, intent(inout) :: op
+    integer, intent(in) :: wanted
+    type(error_t) :: err
+    real(dp) :: buffer_bytes, allowance
+    integer :: n_copies, c, failed
+    logical :: made
+    real(C_DOUBLE), pointer :: data_planes(:)
+    PetscInt :: slab_length
+    PetscErrorCode :: ierr
+    buffer_bytes = 8.0_dp * max(size(op%transform%all, kind=i8), 1_i8)
+    allowance = 2.0_dp**28
+    if (allocated(op%kernel)) allowance = max(allowance, 8.0_dp * size(op%kernel, kind=i8))
+    if (associated(op%shared_kernel)) allowance = max(allowance, 8.0_dp * size(op%shared_kernel, kind=i8))
+    n_copies = min(wanted, max_copies) - 1
+    n_copies = int(min(real(n_copies, dp), allowance / buffer_bytes))
+    call MPI_Allreduce(MPI_IN_PLACE, n_copies, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)
+    allocate (op%copies(max(n_copies, 0)), op%copy_slabs(max(n_copies, 0)))
+    do c = 1, size(op%copies)
+      call size_pruned_transform(op%comm, op%block_size, op%box, op%transform%data, op%copies(c), err)
+      failed = merge(1, 0, err%failed)
+      call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, op%comm, ierr)
+      made = failed == 0
+      ! The plans of the first copy (in FFTW's memory as wisdom now): planning them again is quick.
+      if (made) call make_pruned_plans(op%comm, op%copies(c), merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans), &
+                                       .false., made)
+      if (.not. made) then   ! no memory for it on some rank: fewer copies, the same products
+        call destroy_pruned_transform(op%copies(c))
+        op%copies = op%copies(1:c - 1)
+        op%copy_slabs = op%copy_slabs(1:c - 1)
+        exit
+      end if
+      slab_length = int(size(op%copies(c)%slab))
+      data_planes => op%copies(c)%all(op%copies(c)%slab_offset + 1:)
+      PetscCallA(VecCreateMPIWithArray(op%comm, 1, slab_length, PETSC_DECIDE, data_planes, op%copy_slabs(c), ierr))
+    end do
+  end subroutine make_copies
+
+  !> multipole_operator_t%free_batches: the copies of the transform (made again when needed).
+  subroutine free_copies(this)
+    class(fft_operator_t), intent(inout) :: this
+    PetscErrorCode :: ierr
+    integer :: c
+    if (.not. allocated(this%copies)) return
+    do c = 1, size(this%copies)
+      PetscCallA(VecDestroy(this%copy_slabs(c), ierr))
+      call destroy_pruned_transform(this%copies(c))
+    end do
+    deallocate (this%copies, this%copy_slabs)
+  end subroutine free_copies
+
+  !> Collective. y(j) = A x(j), j = 1 .. size(x) <= 1 + size(op%copies): each x scattered to its
+  !> copy's data planes and transformed, all spectra multiplied in one pass over the kernel,
+  !> transformed back and gathered; then the self term S x.
+  subroutine batched_product(op, x, y)
+    type(fft_operator_t), target, intent(inout) :: op
+    Vec, intent(in) :: x(:), y(:)   ! PETSc handles: the vectors behind y are written
+    type(spectrum_ref_t) :: spectra(size(x))
+    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
+    PetscErrorCode :: ierr
+    type(pruned_transform_t), pointer :: t
+    integer :: j, nb
+
+    nb = op%block_size
+    do j = 1, size(x)
+      ! Sites without a bead hold zero; the scatter fills the bead sites.
+      PetscCallA(VecGetArrayF90(slab_of(j), slab, ierr))
+      slab = 0.0_dp
+      PetscCallA(VecRestoreArrayF90(slab_of(j), slab, ierr))
+      PetscCallA(VecScatterBegin(op%to_slab, x(j), slab_of(j), INSERT_VALUES, SCATTER_FORWARD, ierr))
+      PetscCallA(VecScatterEnd(op%to_slab, x(j), slab_of(j), INSERT_VALUES, SCATTER_FORWARD, ierr))
+    end do
+    ! The FFTs write the arrays behind the PETSc vectors: bracket them with Get/Restore so that
+    ! PETSc's object state (cached norms etc.) knows.
+    do j = 1, size(x)
+      PetscCallA(VecGetArrayF90(slab_of(j), slab, ierr))
+      t => transform_of(j)
+      call transform_forward(t)
+      spectra(j)%values => t%spectrum
+    end do
+    if (associated(op%shared_kernel)) then
+      call multiply_spectra(op, op%shared_kernel, spectra, op%kernel_map)
+    else
+      call multiply_spectra(op, op%kernel, spectra)
+    end if
+    do j = 1, size(x)
+      t => transform_of(j)
+      call transform_backward(t)
+      PetscCallA(VecRestoreArrayF90(slab_of(j), slab, ierr))
+    end do
+    do j = 1, size(x)
+      PetscCallA(VecScatterBegin(op%to_slab, slab_of(j), y(j), INSERT_VALUES, SCATTER_REVERSE, ierr))
+      PetscCallA(VecScatterEnd(op%to_slab, slab_of(j), y(j), INSERT_VALUES, SCATTER_REVERSE, ierr))
+      ! + S x for every bead: one product (nb x nb) x (nb x n_local).
+      PetscCallA(VecGetArrayReadF90(x(j), local_x, ierr))
+      PetscCallA(VecGetArrayF90(y(j), local_y, ierr))
+      if (op%n_local > 0) call dgemm('N', 'N', nb, int(op%n_local), nb, 1.0_dp, op%self_block, nb, local_x, nb, 1.0_dp, &
+                                     local_y, nb)
+      PetscCallA(VecRestoreArrayF90(y(j), local_y, ierr))
+      PetscCallA(VecRestoreArrayReadF90(x(j), local_x, ierr))
+    end do
+
+  contains
+
+    function transform_of(k) result(t)
+      integer, intent(in) :: k
+      type(pruned_transform_t), pointer :: t
+      if (k == 1) then
+        t => op%transform
+      else
+        t => op%copies(k - 1)
+      end if
+    end function transform_of
+
+    function slab_of(k) result(v)
+      integer, intent(in) :: k
+      Vec :: v
+      if (k == 1) then
+        v = op%slab
+      else
+        v = op%copy_slabs(k - 1)
+      end if
+    end function slab_of
+  end subroutine batched_product
+
+  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f of every spectrum. K^(f) is
+  !> kernel(:, g) (or with `map`, a companion, kernel(map, g), gathered into a fixed-size copy) at
+  !> the kept frequency g of f, times D on both sides where f is the mirror image of g
+  !> (k_slow > n_slow / 2). A kept frequency and its image, in every spectrum, are multiplied
+  !> together: one pass over the kernel for all.
+  subroutine multiply_spectra(op, kernel, spectra, map)
     type(fft_operator_t), intent(in) :: op
-    real(dp), intent(in) :: kernel(:, :)
-    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:, :)
+    real(dp), intent(in), target, contiguous :: kernel(:, :)
+    type(spectrum_ref_t), intent(in) :: spectra(:)
     integer, intent(in), optional :: map(:)
-    real(dp) :: gathered(op%block_size * (op%block_size + 1) / 2)
+    real(dp), target :: gathered(op%block_size * (op%block_size + 1) / 2)
+    real(dp), pointer, contiguous :: column(:)
     complex(C_DOUBLE_COMPLEX) :: alone(op%block_size)
     integer(i8) :: g, f, image, line, slow, fast, n_slow, half
+    integer :: j
     n_slow = op%box(3)
     half = op%transform%half
     g = 0
@@ -903,64 +1033,58 @@ contains
       do slow = 0, n_slow / 2
         do fast = 0, half - 1
           g = g + 1
-          if (present(map)) gathered = kernel(map, g)
+          if (present(map)) then
+            gathered = kernel(map, g)
+            column => gathered
+          else
+            column => kernel(:, g)
+          end if
           f = 1 + fast + half * (slow + n_slow * line)
           image = 1 + fast + half * (n_slow - slow + n_slow * line)
-          if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image
-            alone = 0
-            if (present(map)) then
-              call multiply_frequency(op%block_size, op%n_even, gathered, op%mirror_sign, spectrum(:, f), alone)
+          do j = 1, size(spectra)
+            if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image
+              alone = 0
+              call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), alone)
             else
-              call multiply_frequency(op%block_size, op%n_even, kernel(:, g), op%mirror_sign, spectrum(:, f), alone)
+              call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), &
+                                      spectra(j)%values(:, image))
             end if
-          else if (present(map)) then
-            call multiply_frequency(op%block_size, op%n_even, gathered, op%mirror_sign, spectrum(:, f), &
-                                    spectrum(:, image))
-          else
-            call multiply_frequency(op%block_size, op%n_even, kernel(:, g), op%mirror_sign, spectrum(:, f), &
-                                    spectrum(:, image))
-          end if
+          end do
         end do
       end do
     end do
-  end subroutine multiply_spectrum
+  end subroutine multiply_spectra
 
-  !> x <- K^ x and x' <- D K^ D x', K^ = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper
-  !> triangle `packed` (module header) and D = diag(mirror), in real arithmetic: with
-  !> K' = [R_ee, J_eo; J_eo^T, R_oo] (the packed numbers themselves, real symmetric) and x = u + i v,
-  !>   K' [u_e; -v_o] = [Re y_e; -Im y_o],   K' [v_e; u_o] = [Im y_e; Re y_o],
-  !> and likewise for D x'; four real vectors through one pass over the triangle: column t gives
-  !> w(:, s) += K'(s, t) z(:, t) for s < t and, by symmetry, w(:, t) += K'(s, t) z(:, s).
-  pure subroutine multiply_frequency(nb, n_even, packed, mirror, spectrum, image)
-    integer, intent(in) :: nb, n_even
-    real(dp), intent(in) :: packed(:), mirror(:)
-    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:), image(:)
-    real(dp) :: z(4, nb), w(4, nb), k_st, column_sum(4)
-    integer :: s, t, top
-    z(1, 1:n_even) = real(spectrum(1:n_even), dp)
-    z(2, 1:n_even) = aimag(spectrum(1:n_even))
-    z(1, n_even + 1:nb) = -aimag(spectrum(n_even + 1:nb))
-    z(2, n_even + 1:nb) = real(spectrum(n_even + 1:nb), dp)
-    z(3, 1:n_even) = mirror(1:n_even) * real(image(1:n_even), dp)
-    z(4, 1:n_even) = mirror(1:n_even) * aimag(image(1:n_even))
-    z(3, n_even + 1:nb) = -mirror(n_even + 1:nb) * aimag(image(n_even + 1:nb))
-    z(4, n_even + 1:nb) = mirror(n_even + 1:nb) * real(image(n_even + 1:nb), dp)
-    w = 0.0_dp
-    top = 0
-    do t = 1, nb
-      column_sum = 0.0_dp
-      do s = 1, t - 1
-        k_st = packed(top + s)
-        w(:, s) = w(:, s) + k_st * z(:, t)
-        column_sum = column_sum + k_st * z(:, s)
-      end do
-      w(:, t) = w(:, t) + column_sum + packed(top + t) * z(:, t)
-      top = top + t
-    end do
-    spectrum(1:n_even) = cmplx(w(1, 1:n_even), w(2, 1:n_even), kind=C_DOUBLE_COMPLEX)
-    spectrum(n_even + 1:nb) = cmplx(w(2, n_even + 1:nb), -w(1, n_even + 1:nb), kind=C_DOUBLE_COMPLEX)
-    image(1:n_even) = mirror(1:n_even) * cmplx(w(3, 1:n_even), w(4, 1:n_even), kind=C_DOUBLE_COMPLEX)
-    image(n_even + 1:nb) = mirror(n_even + 1:nb) * cmplx(w(4, n_even + 1:nb), -w(3, n_even + 1:nb), &
-                                                          kind=C_DOUBLE_COMPLEX)
+  ! x <- K^ x and x' <- D K^ D x' at one kept frequency and its image (frequency_product.inc),
+  ! for L = 2 (16 unknowns per bead), its companion (6) and any block size.
+#define BLOCK 16
+#define FREQUENCY_PRODUCT multiply_frequency_16
+#include "frequency_product.inc"
+#undef BLOCK
+#undef FREQUENCY_PRODUCT
+#define BLOCK 6
+#define FREQUENCY_PRODUCT multiply_frequency_6
+#include "frequency_product.inc"
+#undef BLOCK
+#undef FREQUENCY_PRODUCT
+#define BLOCK size(mirror)
+#define FREQUENCY_PRODUCT multiply_frequency_any
+#include "frequency_product.inc"
+#undef BLOCK
+#undef FREQUENCY_PRODUCT
+
+  !> The frequency product for the operator's block size.
+  subroutine multiply_frequency(n_even, packed, mirror, spectrum, image)
+    integer, intent(in) :: n_even
+    real(dp), intent(in), contiguous :: packed(:), mirror(:)
+    complex(C_DOUBLE_COMPLEX), intent(inout), contiguous :: spectrum(:), image(:)
+    select case (size(mirror))
+    case (16)
+      call multiply_frequency_16(n_even, packed, mirror, spectrum, image)
+    case (6)
+      call multiply_frequency_6(n_even, packed, mirror, spectrum, image)
+    case default
+      call multiply_frequency_any(n_even, packed, mirror, spectrum, image)
+    end select
   end subroutine multiply_frequency
 end module beadmob_fft_operator

@@ -54,6 +54,11 @@ module beadmob_multipole_operator
     procedure(destroy_interface), deferred :: destroy
     !> y = A x (collective).
     procedure :: apply
+    !> y(j) = A x(j) for several vectors (collective): one product each, unless the operator
+    !> batches them (the FFT operator streams its kernel once for all).
+    procedure :: apply_many
+    !> Frees what apply_many made for its batches (the next call makes it again).
+    procedure :: free_batches
     !> Memory per rank and time of this kind of operator for a job of the given sizes, before
     !> anything is built (the dry run and the memory check, job_estimate.f90).
     procedure(cost_interface), deferred, nopass :: cost
@@ -112,4 +117,20 @@ contains
     PetscErrorCode :: ierr
     PetscCallA(MatMult(this%matrix, x, y, ierr))
   end subroutine apply
+
+  subroutine apply_many(this, x, y)
+    class(multipole_operator_t), target, intent(inout) :: this
+    Vec, intent(in) :: x(:)
+    Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
+    integer :: j
+    PetscErrorCode :: ierr
+    do j = 1, size(x)
+      PetscCallA(MatMult(this%matrix, x(j), y(j), ierr))
+    end do
+  end subroutine apply_many
+
+  !> The plain products of apply_many keep nothing.
+  subroutine free_batches(this)
+    class(multipole_operator_t), intent(inout) :: this
+  end subroutine free_batches
 end module beadmob_multipole_operator

@@ -235,7 +235,7 @@ contains
       call mark(2)
 
       call create_motion_solver(solver, ctx%comm, matrix, near_field, basis%size, size(centres, 2, kind=i8), first, count, &
-                                settings%krylov_rtol, 'solve', report, bead_blocks)
+                                settings%krylov_rtol, 'solve', report, bead_blocks, op, settings%solve_apart)
       solver_made = .true.
       if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
         checkpoint_key(settings, centres, reference_point, basis%size, job_result%operator_name))
@@ -259,6 +259,7 @@ contains
       end if
       call destroy_motion_solver(solver)
       solver_made = .false.
+      call op%free_batches()   ! the companion has buffers of its own
       call mark(3)
 
       if (with_companion) call companion_friction(err)
@@ -319,7 +320,7 @@ contains
       if (.not. err%failed) then
         call create_motion_solver(low_solver, ctx%comm, low_op%matrix, low_preconditioning, low%size, &
                                   size(centres, 2, kind=i8), first, count, settings%krylov_rtol, 'companion solve', &
-                                  report, low_blocks)
+                                  report, low_blocks, low_op, settings%solve_apart)
         call move_alloc(low_start, low_solver%initial_guess)
         call solve_level(low_solver, low_op, low, projection(unknowns, :), job_result%companion_multipole_friction, &
                          job_result%companion_solves, err)

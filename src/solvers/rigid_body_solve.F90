@@ -25,6 +25,8 @@ module beadmob_rigid_body_solve
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry
   use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_multipole_operator, only: multipole_operator_t
+  use beadmob_lockstep_cg, only: krylov_limits_t, solve_lockstep
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
@@ -91,6 +93,7 @@ module beadmob_rigid_body_solve
     character(len=:), allocatable :: checkpoint_file, key
     logical :: saving = .false.
     logical :: loaded(6) = .false.
+    logical :: solved(6) = .false.     ! solved by this call of solve_motions so far
     type(saved_solve_t) :: saved(6)
     !> A test of the resume: stop with an error right after this many solves have been saved,
     !> as a kill at a wall-time limit would (0 = never)
@@ -100,6 +103,12 @@ module beadmob_rigid_body_solve
     real(dp), allocatable :: initial_guess(:, :)
     !> Allocated by find_symmetry: the motions that follow from others are derived, not solved
     type(motion_symmetry_t), allocatable :: symmetry
+    !> The motions are solved together (lockstep_cg.F90: one batched product of `op` per
+    !> iteration) when the Krylov method is CG in the preconditioned norm, as KSP would solve
+    !> them one at a time with `limits`; otherwise one KSPSolve after another.
+    logical :: together = .false.
+    class(multipole_operator_t), pointer :: op => null()
+    type(krylov_limits_t) :: limits
   end type motion_solver_t
 
   !> A loaded solution must give the true residual it was saved with (to rounding, which varies
@@ -112,9 +121,11 @@ contains
   !> first_bead..first_bead+n_local-1 of n_total): CG (theory.md T6) with the single-bead blocks
   !> when bead_blocks is given (preconditioning_matrix then unused), else the Cholesky
   !> factorisation by MUMPS of preconditioning_matrix; relative_tolerance unless -ksp_rtol is
-  !> given. Every -ksp_/-pc_ option applies. bead_blocks must outlive the solver.
+  !> given. Every -ksp_/-pc_ option applies. bead_blocks must outlive the solver. With `op` (the
+  !> operator of `matrix`, which must outlive the solver too) and not `apart`, the motions are
+  !> solved together when the Krylov method allows it (motion_solver_t%together).
   subroutine create_motion_solver(solver, comm, matrix, preconditioning_matrix, nb, n_total, first_bead, n_local, &
-                                  relative_tolerance, label, progress, bead_blocks)
+                                  relative_tolerance, label, progress, bead_blocks, op, apart)
     type(motion_solver_t), intent(out) :: solver
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
@@ -124,8 +135,14 @@ contains
     character(len=*), intent(in) :: label
     logical, intent(in) :: progress
     type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
+    class(multipole_operator_t), intent(inout), optional, target :: op
+    logical, intent(in), optional :: apart
     PetscErrorCode :: ierr
     integer :: motion
+    KSPType :: ksp_type
+    KSPNormType :: norm_type
+    PetscReal :: rtol, abstol, dtol
+    PetscInt :: max_iterations
 
     solver%ctx = make_run_context(comm)
     solver%matrix = matrix
@@ -154,6 +171,15 @@ contains
     PetscCallA(KSPSetComputeSingularValues(solver%ksp, PETSC_TRUE, ierr))
     ! The preconditioner set up now: the bound applies it to resumed and derived motions too.
     PetscCallA(KSPSetUp(solver%ksp, ierr))
+    if (present(op)) then
+      PetscCallA(KSPGetType(solver%ksp, ksp_type, ierr))
+      PetscCallA(KSPGetNormType(solver%ksp, norm_type, ierr))
+      solver%together = ksp_type == KSPCG .and. norm_type == KSP_NORM_PRECONDITIONED
+      if (present(apart)) solver%together = solver%together .and. .not. apart
+      PetscCallA(KSPGetTolerances(solver%ksp, rtol, abstol, dtol, max_iterations, ierr))
+      solver%limits = krylov_limits_t(rtol, abstol, dtol, int(max_iterations))
+      solver%op => op
+    end if
     PetscCallA(MatCreateVecs(matrix, solver%template, PETSC_NULL_VEC, ierr))
     PetscCallA(VecDuplicate(solver%template, solver%preconditioned, ierr))
     do motion = 1, 6
@@ -215,9 +241,10 @@ contains
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
     type(error_t), intent(inout) :: err
-    logical :: computed(6)
-    real(dp) :: solve_seconds, started
-    integer :: solves_done, solves_planned
+    logical :: computed(6), stopped
+    real(dp) :: started, elapsed, solve_seconds
+    integer :: solves_done, solves_planned, k
+    integer, allocatable :: to_solve(:)
     PetscErrorCode :: ierr
     PetscScalar, pointer :: values(:)
     PetscReal :: rhs_norm, residual_norm, rtol, abstol, dtol, largest_value, smallest_value
@@ -246,6 +273,7 @@ contains
     where (.not. computed) stats%source = -1
 
     solver%loaded = .false.
+    solver%solved = .false.
     if (solver%saving) call load_checkpoint(solver, stats%source)
     solves_planned = count(stats%source == 0 .and. .not. solver%loaded)
     solves_done = 0
@@ -268,17 +296,10 @@ contains
         stats%iterations(motion) = 0
         stats%converged_reason(motion) = 0
         stats%true_relative_residual(motion) = -1.0_dp
-        cycle
-      else if (stats%source(motion) > 0) then
-        ! Derived, not solved; its true residual below checks it like a solved one.
-        call derive_solution(solver%symmetry, motion, solution(stats%source(motion)), solution(motion))
-        iterations = 0
-        reason = stats%converged_reason(stats%source(motion))
-        call true_residual(motion)
-      else if (loaded(motion)) then
+      else if (stats%source(motion) == 0 .and. loaded(motion)) then
         ! Resumed: the record of the solve that made it, and its true residual checked again.
-        iterations = saved(motion)%iterations
-        reason = saved(motion)%converged_reason
+        stats%iterations(motion) = saved(motion)%iterations
+        stats%converged_reason(motion) = saved(motion)%converged_reason
         call true_residual(motion)
         if (.not. same_residual(stats%true_relative_residual(motion), saved(motion)%true_relative_residual)) then
           if (solver%ctx%rank == 0) write (error_unit, '(a, es9.2, a, es9.2, a)') 'beadmob: warning: checkpoint ''' // &
@@ -291,40 +312,44 @@ contains
           call progress_line(solver%progress, label // ' ' // motion_names(motion) // ': resumed from the checkpoint')
         end if
       end if
-      if (stats%source(motion) == 0 .and. .not. loaded(motion)) then
+    end do
+
+    ! The solves: all at once (solve_lockstep), or one KSPSolve after another.
+    to_solve = pack([(motion, motion=1, 6)], stats%source == 0 .and. .not. loaded)
+    do k = 1, size(to_solve)
+      if (allocated(solver%initial_guess)) then
+        PetscCallA(VecGetArrayF90(solution(to_solve(k)), values, ierr))
+        values = solver%initial_guess(:, to_solve(k))
+        PetscCallA(VecRestoreArrayF90(solution(to_solve(k)), values, ierr))
+      else
+        PetscCallA(VecZeroEntries(solution(to_solve(k)), ierr))
+      end if
+    end do
+    stopped = .false.
+    started = MPI_Wtime()
+    if (size(to_solve) > 0 .and. solver%together) then
+      call solve_lockstep(solver%op, solver%pc, rhs(to_solve), solution(to_solve), allocated(solver%initial_guess), &
+                          solver%limits, finished_together, stopped)
+    else
+      do k = 1, size(to_solve)
         started = MPI_Wtime()
-        if (allocated(solver%initial_guess)) then
-          PetscCallA(VecGetArrayF90(solution(motion), values, ierr))
-          values = solver%initial_guess(:, motion)
-          PetscCallA(VecRestoreArrayF90(solution(motion), values, ierr))
-        else
-          PetscCallA(VecZeroEntries(solution(motion), ierr))
-        end if
-        PetscCallA(KSPSolve(solver%ksp, rhs(motion), solution(motion), ierr))
+        PetscCallA(KSPSolve(solver%ksp, rhs(to_solve(k)), solution(to_solve(k)), ierr))
         PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
         PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
         PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
-        if (smallest_value > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, &
-                                                                    largest_value / smallest_value)
-        call true_residual(motion)
-        saved(motion) = saved_solve_t(int(iterations), int(reason), stats%true_relative_residual(motion))
-        ! Saved at once: a kill from here on loses nothing of this solve.
-        if (solver%saving) call save_checkpoint(solver, motion, stats%source)
-        solves_done = solves_done + 1
-        solve_seconds = solve_seconds + (MPI_Wtime() - started)
-        call progress_line(solver%progress, label // ' ' // motion_names(motion) // ': ' // str(int(iterations)) // &
-                           ' iterations, ' // progress_seconds(MPI_Wtime() - started) // ' s; ' // &
-                           str(solves_planned - solves_done) // ' solves left, ~' // &
-                           progress_seconds(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
-        if (solves_done == solver%stop_after_solves) then
-          ! Every rank counts the same solves: they all stop here together.
-          call raise(err, 'stopped after ' // str(solves_done) // ' solves as -stop_after_solves asks (a test ' // &
-                     'of the resume)' // saved_where())
-          return
-        end if
-      end if
-      stats%iterations(motion) = int(iterations)
-      stats%converged_reason(motion) = int(reason)
+        call finish_solve(to_solve(k), int(iterations), int(reason), largest_value, smallest_value, stopped)
+        if (stopped) exit
+      end do
+    end if
+    if (stopped) return
+
+    ! Derived, not solved; each true residual checks it like a solved one.
+    do motion = 1, 6
+      if (stats%source(motion) <= 0) cycle
+      call derive_solution(solver%symmetry, motion, solution(stats%source(motion)), solution(motion))
+      stats%iterations(motion) = 0
+      stats%converged_reason(motion) = stats%converged_reason(stats%source(motion))
+      call true_residual(motion)
     end do
 
     ! zeta_mn = c_m . q_n + q_m . r_n (the force and torque of solution n projected on motion m).
@@ -350,6 +375,46 @@ contains
     stats%resumed = merge(1, 0, solver%loaded)
 
   contains
+
+    !> solve_lockstep's report of system k (motion to_solve(k)).
+    subroutine finished_together(k, its, why, largest, smallest, stop)
+      integer, intent(in) :: k, its, why
+      real(dp), intent(in) :: largest, smallest
+      logical, intent(inout) :: stop
+      call finish_solve(to_solve(k), its, why, largest, smallest, stop)
+    end subroutine finished_together
+
+    !> Motion m solved (its iterations, KSPConvergedReason, the extreme eigenvalues of B A):
+    !> recorded, its true residual checked, saved at once (a kill from here on loses nothing of
+    !> it) and reported; stop after the test's number of solves (err set, on every rank alike).
+    subroutine finish_solve(m, its, why, largest, smallest, stop)
+      integer, intent(in) :: m, its, why
+      real(dp), intent(in) :: largest, smallest
+      logical, intent(inout) :: stop
+      stats%iterations(m) = its
+      stats%converged_reason(m) = why
+      solver%solved(m) = .true.
+      if (smallest > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, largest / smallest)
+      call true_residual(m)
+      solver%saved(m) = saved_solve_t(its, why, stats%true_relative_residual(m))
+      if (solver%saving) call save_checkpoint(solver, m, stats%source)
+      solves_done = solves_done + 1
+      ! Seconds since the solves began (together) or since this one began (apart); what is left
+      ! at the average so far.
+      elapsed = MPI_Wtime() - started
+      if (.not. solver%together) solve_seconds = solve_seconds + elapsed
+      if (solver%together) solve_seconds = elapsed
+      call progress_line(solver%progress, solver%label // ' ' // motion_names(m) // ': ' // str(its) // &
+                         ' iterations, ' // progress_seconds(elapsed) // ' s; ' // &
+                         str(solves_planned - solves_done) // ' solves left, ~' // &
+                         progress_seconds(solve_seconds / solves_done * (solves_planned - solves_done)) // ' s')
+      if (solves_done == solver%stop_after_solves) then
+        ! Every rank counts the same solves: they all stop here together.
+        call raise(err, 'stopped after ' // str(solves_done) // ' solves as -stop_after_solves asks (a test ' // &
+                   'of the resume)' // saved_where())
+        stop = .true.
+      end if
+    end subroutine finish_solve
 
     !> stats%true_relative_residual(m) = |c - A q| / |c|, with r = c - A q kept for the friction:
     !> the true residual, independent of the preconditioned norm KSP monitors.
@@ -442,7 +507,7 @@ contains
     call begin_checkpoint(solver%ctx, solver%checkpoint_file, solver%key, solver%n_total, solver%nb, writer, problem)
     if (.not. problem%failed) then
       do k = 1, 6
-        if (.not. (k == m .or. solver%loaded(k) .or. (source(k) == 0 .and. k < m))) cycle
+        if (.not. (k == m .or. solver%loaded(k) .or. (source(k) == 0 .and. solver%solved(k)))) cycle
         PetscCallA(VecGetArrayReadF90(solver%solution(k), values, ierr))
         block => columns(solver, values, no_columns)
         call write_checkpoint_motion(writer, motion_names(k), block, solver%first_bead, solver%n_total, solver%saved(k), &

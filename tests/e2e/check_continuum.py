@@ -115,6 +115,7 @@ def main(beadmob, mpiexec, ranks, workdir):
     nml = write_input(workdir, "killed.nml", "killed.h5", SPHERE + LADDER)
     checkpoint = Path(workdir) / "killed.h5.continuum_checkpoint"
     checkpoint.unlink(missing_ok=True)
+    (Path(workdir) / "killed.h5").unlink(missing_ok=True)   # the result of an earlier run of this test
     job = subprocess.Popen([mpiexec, "-n", str(ranks), beadmob, str(nml)], cwd=workdir, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 600
