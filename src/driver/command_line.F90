@@ -36,7 +36,8 @@ module beadmob_command_line
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
-    option_t('fft_planner', 'measure|estimate', word, 'FFTW plans: measured (default, faster) or reproducible'), &
+    option_t('fft_planner', 'auto|measure|estimate', word, 'FFTW plans: measured (faster products), estimated ' // &
+             '(reproducible) or auto (default: measured when remembered with a table cache)'), &
     option_t('solve_apart', '', switch, 'solve the motions one KSPSolve after another (KSP monitors apply) ' // &
              'instead of together'), &
     option_t('near_field_radius', 'R', real_number, 'pairs within R (d) in the preconditioning matrix (default 0)'), &

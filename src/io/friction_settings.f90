@@ -60,9 +60,11 @@ module beadmob_friction_settings
     !> The precorrected-FFT operator's interpolation points per axis and exact-pair radius (d)
     integer :: pfft_stencil = default_pfft_stencil
     real(dp) :: pfft_near_radius = default_pfft_near_radius
-    !> FFTW planner of the FFT operators: 'measure' (faster products) or 'estimate' (bitwise
-    !> reproducible from run to run)
-    character(len=16) :: fft_planner = 'measure'
+    !> FFTW planner of the FFT operators: 'measure' (faster products, after trial transforms that
+    !> cost about fifteen products unless remembered), 'estimate' (bitwise reproducible from run to
+    !> run) or 'auto': measure where the plans are remembered (a table cache), else estimate
+    !> (bench/side_by_side/fft_planner.md)
+    character(len=16) :: fft_planner = 'auto'
     !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
     !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
     logical :: solve_apart = .false.

@@ -66,9 +66,9 @@ module beadmob_fft_operator
     type(block_table_t) :: table
     integer :: axes(3) = [1, 2, 3]          ! lattice axis of the fast, middle and slow FFT dimension
     integer :: box(3) = 1                   ! padded size of the fast, middle and slow FFT dimension
-    !> FFTW_MEASURE plans (timed trial transforms while planning, ~20 % faster products at a
-    !> set-up cost of about ten products, but the chosen algorithm, hence the rounding, may vary
-    !> from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit). Measured plans are
+    !> FFTW_MEASURE plans (timed trial transforms while planning, 11-20 % faster products at a
+    !> set-up cost of about fifteen products, but the chosen algorithm, hence the rounding, may
+    !> vary from run to run) or FFTW_ESTIMATE plans (reproducible to the last bit). Measured plans are
     !> remembered between runs in FFTW wisdom next to the table cache (<cache file>.fftw_wisdom;
     !> none without a cache): a later run on the same box plans at once (plans_from_wisdom).
     logical :: measure_plans = .true.
@@ -95,7 +95,7 @@ module beadmob_fft_operator
     MPI_Comm :: comm
     !> Further copies of the transform for products of several vectors at once (apply_many),
     !> made on the first such product: the kernel is streamed once for all of them. At most
-    !> max_copies in all, fewer where their buffers would cost more memory than the kernel.
+    !> max_copies in all, fewer where their buffers would cost more than a quarter of the kernel.
     type(pruned_transform_t), allocatable :: copies(:)
     Vec, allocatable :: copy_slabs(:)
   contains
@@ -884,8 +884,8 @@ contains
   end subroutine apply_fft_many
 
   !> Collective. Copies of the transform (plans, buffer, the PETSc view of its data planes) for
-  !> batched products of up to `wanted` vectors: max_copies at most, and no more than the memory of
-  !> the kernel (or 256 MiB) allows, so a large job keeps its memory per rank.
+  !> batched products of up to `wanted` vectors: max_copies at most, and in no more memory than a
+  !> quarter of the kernel's (or 64 MiB), so a large job keeps its memory per rank.
   subroutine make_copies(op, wanted)
     type(fft_operator_t), target, intent(inout) :: op
     integer, intent(in) :: wanted
@@ -897,9 +897,9 @@ contains
     PetscInt :: slab_length
     PetscErrorCode :: ierr
     buffer_bytes = 8.0_dp * max(size(op%transform%all, kind=i8), 1_i8)
-    allowance = 2.0_dp**28
-    if (allocated(op%kernel)) allowance = max(allowance, 8.0_dp * size(op%kernel, kind=i8))
-    if (associated(op%shared_kernel)) allowance = max(allowance, 8.0_dp * size(op%shared_kernel, kind=i8))
+    allowance = 2.0_dp**26
+    if (allocated(op%kernel)) allowance = max(allowance, 2.0_dp * size(op%kernel, kind=i8))
+    if (associated(op%shared_kernel)) allowance = max(allowance, 2.0_dp * size(op%shared_kernel, kind=i8))
     n_copies = min(wanted, max_copies) - 1
     n_copies = int(min(real(n_copies, dp), allowance / buffer_bytes))
     call MPI_Allreduce(MPI_IN_PLACE, n_copies, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)

@@ -201,7 +201,10 @@ contains
                        str(basis%size) // ' unknowns each, ' // trim(job_result%operator_name) // ' operator')
     job_result%cache_file = settings%cache_file
     options%cache_file = trim(settings%cache_file)
-    options%measure_plans = settings%fft_planner == 'measure'
+    ! 'auto': measured plans pay when they are remembered (wisdom next to the cache), not when
+    ! each run measures anew (bench/side_by_side/fft_planner.md).
+    options%measure_plans = settings%fft_planner == 'measure' .or. &
+                            (settings%fft_planner == 'auto' .and. len_trim(settings%cache_file) > 0)
     options%report = report
     options%pfft_stencil = settings%pfft_stencil
     options%pfft_near_radius = settings%pfft_near_radius

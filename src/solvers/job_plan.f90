@@ -78,8 +78,8 @@ contains
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
     else if (settings%stop_after_solves < 0) then
       call raise(err, '-stop_after_solves needs a number of solves >= 1')
-    else if (settings%fft_planner /= 'measure' .and. settings%fft_planner /= 'estimate') then
-      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(settings%fft_planner) // "'")
+    else if (all(settings%fft_planner /= [character(len=8) :: 'measure', 'estimate', 'auto'])) then
+      call raise(err, "-fft_planner must be 'measure', 'estimate' or 'auto', got '" // trim(settings%fft_planner) // "'")
     end if
     if (err%failed) return
     plan%model_beads = size(centres, 2, kind=i8)

@@ -1,0 +1,111 @@
+#!/usr/bin/env python3
+"""side_by_side.py --a "OPTIONS" --b "OPTIONS" --out FILE [--title T] [--exe BUILD/beadmob] [--repeats 3]:
+two sets of command-line options of one build, side by side on the lattice jobs of issue 24.
+
+Each job runs with options A and options B in alternation (both see the same machine), 2 ranks,
+`--repeats` times, no table cache (BEADMOB_CACHE unset). From each result file: the blocks phase
+(the operator's set-up, FFT plans included), the solve and companion phases, the job (`total`)
+and the time per operator product of the order-L solve (its phase over its products: every CG
+iteration and one true-residual product per computed motion). The table gives medians, the
+ratio B / A of the job times, and whether the two runs' friction agrees within what the solver
+promises for both (tests/e2e/solver_promise.py).
+"""
+import argparse
+import os
+import shlex
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "bench" / "everyday_jobs"))
+sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
+sys.path.insert(0, str(ROOT / "tests" / "e2e"))
+from everyday_jobs import eden_body, write_beads  # noqa: E402
+import solver_promise  # noqa: E402
+
+RANKS = 2
+ENV = {k: v for k, v in os.environ.items() if k != "BEADMOB_CACHE"}
+ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+
+
+def run(exe, nml, options, workdir):
+    for old in Path(workdir).glob("*.h5"):
+        old.unlink()
+    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-quiet", *options], cwd=workdir, env=ENV, check=True,
+                   stdout=subprocess.DEVNULL)
+    (result,) = list(Path(workdir).glob("*.h5"))
+    with h5py.File(result) as f:
+        h = f["hydrodynamics"]
+        seconds = dict(zip(h.attrs["phase_names"].decode().split(), h.attrs["phase_seconds"]))
+        products = int(np.sum(h.attrs["solve_iterations"])) + int(np.sum(h.attrs["solve_source"] >= 0))
+        return {"blocks": seconds["blocks"], "solve": seconds["solve"], "companion": seconds["companion"],
+                "total": seconds["total"], "product": seconds["solve"] / products,
+                "memory": float(h.attrs["peak_memory_bytes"]) / 2**20,
+                "friction": h["friction"][()], "multipole_friction": h["multipole_friction"][()],
+                "bound": solver_promise.bound(h)}
+
+
+def agreement(a, b):
+    if a["bound"] is None or b["bound"] is None:
+        return float("nan")
+    allowed = solver_promise.allowed_difference([a["bound"], b["bound"]], a["multipole_friction"])
+    return float(np.nanmax(np.abs(a["friction"] - b["friction"]) / allowed))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--exe", default=str(ROOT / "build" / "beadmob"))
+    parser.add_argument("--a", required=True, help="options of run A, e.g. '-fft_planner estimate'")
+    parser.add_argument("--b", required=True)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--title", default="")
+    args = parser.parse_args()
+    exe = os.path.abspath(args.exe)
+    sets = {"A": shlex.split(args.a), "B": shlex.split(args.b)}
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        write_beads(work / "random_1000.txt", eden_body(1000))
+        (work / "random_1000.nml").write_text("&run output = 'random_1000.h5' /\n"
+                                              "&shape name = 'bead_file', file = 'random_1000.txt' /\n&hydrodynamics /\n")
+        (work / "sphere_20.nml").write_text("&run output = 'sphere.h5' /\n&shape name = 'sphere', radius = 20 /\n"
+                                            "&hydrodynamics /\n")
+        jobs = [("random 1000 beads", work / "random_1000.nml"),
+                ("paper cone (`shapes/cone.nml`)", ROOT / "shapes" / "cone.nml"),
+                ("ring_1mm (`shapes/ring_1mm.nml`)", ROOT / "shapes" / "ring_1mm.nml"),
+                ("sphere of radius 20 (33371 beads)", work / "sphere_20.nml")]
+        rows = []
+        for label, nml in jobs:
+            runs = {"A": [], "B": []}
+            for _ in range(args.repeats):
+                for key in runs:
+                    runs[key].append(run(exe, nml, sets[key], work))
+            med = {key: {name: float(np.median([r[name] for r in rs])) for name in
+                         ("blocks", "solve", "companion", "total", "product", "memory")} for key, rs in runs.items()}
+            rows.append((label, med, agreement(runs["A"][-1], runs["B"][-1])))
+            print(label, med, flush=True)
+    lines = [f"# {args.title or 'Side by side'}", "",
+             f"Written by `bench/side_by_side/side_by_side.py`: {RANKS} ranks, medians of {args.repeats} runs of "
+             f"each option set in alternation, no table cache. A: `{args.a}`; B: `{args.b}`. Phases in seconds "
+             "(`blocks`: the operator's set-up, FFT plans included); `product`: the order-L solve phase over its "
+             "operator products; `agree`: the largest friction difference of the last pair over what the solver "
+             "promises for both (at most 1: equal within the promise).", "",
+             "| job | blocks A | blocks B | solve A | solve B | companion A | companion B | product A (ms) | "
+             "product B (ms) | job A | job B | B / A | memory A (MiB) | memory B (MiB) | agree |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label, med, agree in rows:
+        a, b = med["A"], med["B"]
+        lines.append(f"| {label} | {a['blocks']:.2f} | {b['blocks']:.2f} | {a['solve']:.2f} | {b['solve']:.2f} | "
+                     f"{a['companion']:.2f} | {b['companion']:.2f} | {1e3 * a['product']:.1f} | "
+                     f"{1e3 * b['product']:.1f} | {a['total']:.2f} | {b['total']:.2f} | {b['total'] / a['total']:.2f} | "
+                     f"{a['memory']:.0f} | {b['memory']:.0f} | {agree:.2f} |")
+    Path(args.out).write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
