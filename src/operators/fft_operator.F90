@@ -9,12 +9,14 @@
 !> (no wrapped image reaches back into [-span, span]), so it is exact up to rounding:
 !>   y = IFFT( K^(k) FFT(x)(k) ),  K^(k) an nb x nb complex block per frequency.
 !>
-!> Layout (FFTW's MPI interface, slab decomposition): the padded box is stored in C order
-!> [n0][n1][n2][nb] (Fortran (nb, n2, n1, n0)), the nb multipole fields interleaved so that one
-!> "many" plan transforms all of them with one global transpose; real space is split over ranks
-!> along n0, Fourier space (FFTW_MPI_TRANSPOSED_OUT) along n1, which saves the transpose back
-!> in both the forward and the inverse transform: the product is pointwise, so the order of the
-!> frequencies never matters as long as the kernel is transformed by the same plan.
+!> Layout (slab decomposition): the padded box is stored in C order [n0][n1][n2][nb] (Fortran
+!> (nb, n2, n1, n0)), the nb multipole fields interleaved so that each pass transforms all of
+!> them; real space is split over ranks along n0, Fourier space along n1 (FFTW_MPI_TRANSPOSED_OUT's
+!> layout), which saves the transpose back in both directions: the product is pointwise, so the
+!> order of the frequencies never matters as long as the kernel is laid out the same way. The
+!> products' transforms are pruned to the sites that can hold a bead (pruned_transform.f90); the
+!> kernel, which fills the box, is transformed once by FFTW-MPI's whole plan into the same layout.
+!> The mirror of the slow axis halves the kernel kept (find_mirror_signs).
 !>
 !> Kernel symmetries, which make the stored kernel one real number per (a <= b) pair and
 !> frequency instead of nb^2 complex ones:

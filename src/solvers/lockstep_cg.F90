@@ -107,11 +107,10 @@ contains
     where (norm0 == 0) norm0 = norm   ! a zero right-hand side with a nonzero guess
     tolerance = max(limits%rtol * norm0, limits%abstol)
     call test(0)
-    if (stopped) return
-    call dots(z, r, running, beta)
+    if (.not. stopped) call dots(z, r, running, beta)
 
     do i = 0, limits%max_iterations - 1
-      if (.not. any(running)) exit
+      if (stopped .or. .not. any(running)) exit
       do j = 1, n
         if (.not. running(j)) cycle
         iterations(j) = i + 1
