@@ -179,8 +179,9 @@ contains
   end subroutine fft_companion
 
   !> multipole_operator_t%cost (docs/scaling.md lists the terms): the canonical blocks (freed
-  !> once the kernel is transformed), the packed kernel of this rank's frequencies, the FFT buffer
-  !> (spectrum and data planes, pruned_transform.f90) and FFTW-MPI's transposes; the companion's
+  !> once the kernel is transformed), the packed kernel of this rank's frequencies, the FFT buffers
+  !> (spectrum and data planes, pruned_transform.f90, and the batch's copies of them, make_copies)
+  !> and FFTW-MPI's transposes; the companion's
   !> buffer. Time: quadrature per canonical block, kernel fill per site and entry, the kernel's
   !> whole transforms; per product the two pruned transforms of nb fields and the kernel product.
   pure subroutine fft_cost(size, cost)
@@ -211,6 +212,9 @@ contains
                                     (freq_planes * data(3) + data_planes * cost%fft_box(2)) * half)
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     cost%companion = cost%fft_buffer * size%nb_low / nb * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
+    ! With the copies of the batch that solves six motions together (make_copies).
+    cost%fft_buffer = cost%fft_buffer * (1 + min(real(max_copies - 1, dp), &
+                                                 real(floor(max(cost%kernel / 4, 2.0_dp**26) / cost%fft_buffer), dp)))
     cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
                          + (fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
                           + ceiling(packed / nb) * fft_seconds * nb * sites * log_sites) / size%n_ranks
