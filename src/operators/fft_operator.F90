@@ -15,7 +15,8 @@
 !> layout), which saves the transpose back in both directions: the product is pointwise, so the
 !> order of the frequencies never matters as long as the kernel is laid out the same way. The
 !> products' transforms are pruned to the sites that can hold a bead (pruned_transform.f90); the
-!> kernel, which fills the box, is transformed once by FFTW-MPI's whole plan into the same layout.
+!> kernel, which fills the box, is transformed once from one octant of displacements by its mirror
+!> parities into the same layout (kernel_spectrum.f90).
 !> The mirror of the slow axis halves the kernel kept (find_mirror_signs).
 !>
 !> Kernel symmetries, which make the stored kernel one real number per (a <= b) pair and
@@ -42,14 +43,14 @@ module beadmob_fft_operator
   use beadmob_fftw
   use beadmob_lapack, only: dgemm
   use beadmob_pruned_transform, only: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, &
-                                      transform_forward, transform_backward, transform_whole, free_whole_plan, &
-                                      destroy_pruned_transform
+                                      transform_forward, transform_backward, destroy_pruned_transform
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: self_block
-  use beadmob_block_table, only: block_table_t, make_block_table, lattice_block, lattice_block_entries
+  use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
+  use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
   use beadmob_unit_lattice, only: lattice_tolerance
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
@@ -83,6 +84,7 @@ module beadmob_fft_operator
     !> K^ at the mirrored frequency (k_slow -> -k_slow) is D K^ D, so the kernel is kept for
     !> k_slow <= n_slow / 2 only (module header).
     real(dp), allocatable :: mirror_sign(:)
+    real(dp), allocatable :: axis_sign(:, :)   ! (slot, FFT axis): D of each axis' mirror (find_mirror_signs)
     !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
     !> for this rank's frequencies with k_slow <= n_slow / 2 ([lines][n_slow/2 + 1][n_fast/2 + 1]):
     !> the real part, or for an even-odd entry the imaginary part.
@@ -183,7 +185,7 @@ contains
   !> (spectrum and data planes, pruned_transform.f90, and the batch's copies of them, make_copies)
   !> and FFTW-MPI's transposes; the companion's
   !> buffer. Time: quadrature per canonical block, kernel fill per site and entry, the kernel's
-  !> whole transforms; per product the two pruned transforms of nb fields and the kernel product.
+  !> octant transforms; per product the two pruned transforms of nb fields and the kernel product.
   pure subroutine fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
@@ -215,9 +217,13 @@ contains
     ! With the copies of the batch that solves six motions together (make_copies).
     cost%fft_buffer = cost%fft_buffer * (1 + min(real(max_copies - 1, dp), &
                                                  real(floor(max(cost%kernel / 4, 2.0_dp**26) / cost%fft_buffer), dp)))
+    ! The kernel from its octant, the entries split over the ranks (kernel_spectrum.f90): each
+    ! entry formed at the octant's displacements, its three passes of extended lines and its
+    ! exchange (about six transform units per point, measured on a 113081-bead sphere).
     cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
-                         + (fill_seconds * packed * product(real(2 * size%spans + 1, dp)) &
-                          + ceiling(packed / nb) * fft_seconds * nb * sites * log_sites) / size%n_ranks
+                         + packed * (fill_seconds * product(real(size%spans + 1, dp)) &
+                                     + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
+                         / size%n_ranks
     cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * pruned &
                                 + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
@@ -328,11 +334,10 @@ contains
                                              ' read from the cache (' // progress_seconds(MPI_Wtime() - start) // ' s)')
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
-    if (.not. err%failed) call plan_transforms(comm, op, .true., err)
+    if (.not. err%failed) call plan_transforms(comm, op, err)
     if (.not. err%failed) call find_mirror_signs(op, err)
-    if (.not. err%failed) call transform_kernel(op, err, reporting, start)
+    if (.not. err%failed) call transform_kernel(comm, op, err, reporting, start)
     call free_canonical_blocks(op%table)   ! the kernel holds them now
-    call free_whole_plan(op%transform)
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (failed_anywhere /= 0) then
@@ -392,7 +397,7 @@ contains
         companion%kernel_map(s + t * (t - 1) / 2) = ps + pt * (pt - 1) / 2
       end do
     end do
-    call plan_transforms(comm, companion, .false., err)
+    call plan_transforms(comm, companion, err)
     ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
     if (.not. err%failed .and. companion%transform%n_frequencies /= parent%transform%n_frequencies) &
       call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
@@ -548,30 +553,37 @@ contains
                  ' relative')
   end subroutine check_symmetries
 
-  !> mirror_sign: D_M of the mirror M of the slow FFT axis (a lattice symmetry, T4) is diagonal in
+  !> axis_sign(:, a): D_M of the mirror M of FFT axis a (a lattice symmetry, T4) is diagonal in
   !> the real basis, ±1 per unknown (cos and sin of m phi, and the (n + m) parity along z, keep or
-  !> flip their sign); A(M d) = D_M A(d) D_M gives K^ at the mirrored frequency as D K^ D. Refused
-  !> if the table's D_M is not such a diagonal (a basis without that structure).
+  !> flip their sign), in slot order. A(M d) = D_M A(d) D_M makes every kernel entry even or odd
+  !> along each axis (kernel_spectrum.f90) and gives K^ at the slow axis' mirrored frequency as
+  !> D K^ D (mirror_sign). Refused if a D_M of the table is not such a diagonal (a basis without
+  !> that structure).
   subroutine find_mirror_signs(op, err)
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
-    integer :: mirror, a
+    integer :: mirror, a, axis
     real(dp), parameter :: tolerance = 1.0e-10_dp
     if (.not. allocated(op%table%transforms)) then
       call raise(err, 'internal error: the FFT operator needs the lattice symmetries of its block table')
       return
     end if
-    mirror = 1 + 2**(op%axes(3) - 1)   ! identity permutation, the slow axis' sign flipped (symmetry_matrix)
-    allocate (op%mirror_sign(op%block_size))
-    associate (d => op%table%transforms(:, :, mirror))
-      do a = 1, op%block_size
-        op%mirror_sign(op%slot(a)) = sign(1.0_dp, d(a, a))
-      end do
-      if (maxval(abs(abs(d) - identity(op%block_size))) > tolerance) &
-        call raise(err, 'the FFT operator needs a basis that a mirror of the lattice maps onto ± itself; the ' // &
-                   'mirror of lattice axis ' // str(op%axes(3)) // ' mixes its functions by ' // &
-                   str(maxval(abs(abs(d) - identity(op%block_size)))))
-    end associate
+    allocate (op%axis_sign(op%block_size, 3))
+    do axis = 1, 3
+      mirror = 1 + 2**(op%axes(axis) - 1)   ! identity permutation, one sign flipped (symmetry_matrix)
+      associate (d => op%table%transforms(:, :, mirror))
+        do a = 1, op%block_size
+          op%axis_sign(op%slot(a), axis) = sign(1.0_dp, d(a, a))
+        end do
+        if (maxval(abs(abs(d) - identity(op%block_size))) > tolerance) then
+          call raise(err, 'the FFT operator needs a basis that a mirror of the lattice maps onto ± itself; the ' // &
+                     'mirror of lattice axis ' // str(op%axes(axis)) // ' mixes its functions by ' // &
+                     str(maxval(abs(abs(d) - identity(op%block_size)))))
+          return
+        end if
+      end associate
+    end do
+    op%mirror_sign = op%axis_sign(:, 3)
   end subroutine find_mirror_signs
 
   pure function identity(n) result(matrix)
@@ -592,12 +604,10 @@ contains
     if (allocated(table%blocks)) deallocate (table%blocks)
   end subroutine free_canonical_blocks
 
-  !> Padded box, axis order, the pruned transforms' slabs, buffer and plans (pruned_transform.f90),
-  !> and with `whole` FFTW-MPI's whole r2c plan for the kernel.
-  subroutine plan_transforms(comm, op, whole, err)
+  !> Padded box, axis order, the pruned transforms' slabs, buffer and plans (pruned_transform.f90).
+  subroutine plan_transforms(comm, op, err)
     MPI_Comm, intent(in) :: comm
     type(fft_operator_t), intent(inout) :: op
-    logical, intent(in) :: whole
     type(error_t), intent(inout) :: err
     integer :: failed
     integer(C_INT) :: planner
@@ -635,10 +645,10 @@ contains
     if (len(wisdom_file) > 0) then
       ! Plans from remembered wisdom only (FFTW_WISDOM_ONLY: no plan if the box is new to it).
       call recall_wisdom(comm, wisdom_file)
-      call make_pruned_plans(comm, op%transform, ior(planner, FFTW_WISDOM_ONLY), whole, op%plans_from_wisdom)
+      call make_pruned_plans(comm, op%transform, ior(planner, FFTW_WISDOM_ONLY), op%plans_from_wisdom)
     end if
     made = op%plans_from_wisdom
-    if (.not. made) call make_pruned_plans(comm, op%transform, planner, whole, made)
+    if (.not. made) call make_pruned_plans(comm, op%transform, planner, made)
     if (.not. made) then
       call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
                  str(op%box(3)) // ' transforms')
@@ -684,22 +694,20 @@ contains
     end if
   end subroutine remember_wisdom
 
-  !> K^ = FFT(K) / M for the upper triangle over slots, nb entries at a time through FFTW-MPI's
-  !> whole plan on the operator's buffer (the kernel fills the whole box: nothing to prune; the
-  !> transient memory is the one buffer). Its spectrum is laid out as the pruned one. Each rank forms
-  !> the entries of its own slab's sites from the compact block table (lattice_block_entries),
-  !> so the real-space kernel is never held whole on any rank.
-  subroutine transform_kernel(op, err, reporting, start)
+  !> K^ = FFT(K) / M for the upper triangle over slots at this rank's frequencies with
+  !> k_slow <= n_slow / 2, from the octant of displacements by the mirror parities of the
+  !> entries (kernel_spectrum.f90); the operator's buffer, not needed before the first product,
+  !> is the rounds' scratch.
+  subroutine transform_kernel(comm, op, err, reporting, start)
+    MPI_Comm, intent(in) :: comm
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
-    logical, intent(in) :: reporting   ! a progress line per batch (rank 0)
+    logical, intent(in) :: reporting   ! a progress line about every quarter (rank 0)
     real(dp), intent(in) :: start      ! MPI_Wtime of the set-up's start
-    integer :: nb, n_packed, batch, n_batches, c, e, i, j, k, s, t, d(3), first, last, stat
-    integer, allocatable :: row(:), column(:), unknown(:)
-    logical, allocatable :: odd(:)
-    integer(i8) :: site, f, g, kept, line, slow, fast
-    real(dp) :: scale
-    logical :: inside
+    type(kernel_octant_t) :: octant
+    integer :: nb, n_packed, e, i, s, t, stat
+    integer, allocatable :: unknown(:)
+    integer(i8) :: kept
 
     nb = op%block_size
     n_packed = nb * (nb + 1) / 2
@@ -710,8 +718,9 @@ contains
                  ' GB on this rank)')
       return
     end if
-    ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t.
-    allocate (row(n_packed), column(n_packed), unknown(nb), odd(n_packed))
+    ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t, and its parity
+    ! along each FFT axis.
+    allocate (unknown(nb), octant%row(n_packed), octant%column(n_packed), octant%parity(n_packed, 3))
     do i = 1, nb
       unknown(op%slot(i)) = i
     end do
@@ -719,84 +728,37 @@ contains
     do t = 1, nb
       do s = 1, t
         e = e + 1
-        row(e) = unknown(s)
-        column(e) = unknown(t)
-        odd(e) = s <= op%n_even .and. t > op%n_even
+        octant%row(e) = unknown(s)
+        octant%column(e) = unknown(t)
+        octant%parity(e, :) = nint(op%axis_sign(s, :) * op%axis_sign(t, :))
+        ! The three mirrors make the inversion: an entry odd under it (an even-odd slot pair)
+        ! is odd along an odd number of axes.
+        if ((s <= op%n_even .and. t > op%n_even) .neqv. mod(count(octant%parity(e, :) < 0), 2) == 1) then
+          call raise(err, 'internal error: the lattice mirrors of kernel entry (' // str(s) // ', ' // str(t) // &
+                     ') disagree with its inversion parity')
+          return
+        end if
       end do
     end do
+    octant%box = op%box
+    octant%axes = op%axes
+    octant%first_line = op%transform%first_line
+    octant%lines = op%transform%lines
     ! The 1/M of the inverse transform, folded into the kernel once.
-    scale = 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3))
-
-    n_batches = (n_packed - 1) / nb + 1
-    do batch = 0, n_batches - 1
-      op%transform%whole_slab = 0.0_dp
-      do k = 0, int(op%transform%whole_planes) - 1
-        do j = 0, op%box(2) - 1
-          do i = 0, op%box(1) - 1
-            call displacement_at([i, j, int(op%transform%whole_first_plane) + k], d, inside)
-            if (.not. inside) cycle
-            site = padded_site(op, i, j, k)
-            first = batch * nb + 1
-            last = min(batch * nb + nb, n_packed)
-            call lattice_block_entries(op%table, d, row(first:last), column(first:last), &
-                                       op%transform%whole_slab(site * nb + 1:site * nb + last - first + 1))
-          end do
-        end do
-      end do
-      call transform_whole(op%transform)
-      ! Even entries have a real transform, odd (even-odd slot) ones an imaginary one; the
-      ! other part is rounding. The frequencies k_slow <= n_slow / 2 (the others follow by the
-      ! mirror), frequency-outer: contiguous writes into the kernel.
-      g = 0
-      do line = 0, op%transform%lines - 1
-        do slow = 0, op%box(3) / 2
-          do fast = 0, op%transform%half - 1
-            f = 1 + fast + op%transform%half * (slow + op%box(3) * line)
-            g = g + 1
-            do c = 1, min(nb, n_packed - batch * nb)
-              e = batch * nb + c
-              if (odd(e)) then
-                op%kernel(e, g) = scale * aimag(op%transform%spectrum(c, f))
-              else
-                op%kernel(e, g) = scale * real(op%transform%spectrum(c, f), dp)
-              end if
-            end do
-          end do
-        end do
-      end do
-      ! About every quarter of the batches.
-      call progress_line(reporting .and. (4 * (batch + 1)) / n_batches /= (4 * batch) / n_batches, &
-                         'FFT kernel: ' // str(min(batch * nb + nb, n_packed)) // ' of ' // &
-                         str(n_packed) // ' entries transformed (' // progress_seconds(MPI_Wtime() - start) // ' s)')
-    end do
+    call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
+                         op%transform%all, op%kernel, err, report_entries)
 
   contains
 
-    !> The displacement (lattice axes) of padded site p (FFT dimension order), and whether it
-    !> lies in the table's box [-span, span]^3.
-    pure subroutine displacement_at(p, displacement, in_box)
-      integer, intent(in) :: p(3)
-      integer, intent(out) :: displacement(3)
-      logical, intent(out) :: in_box
-      integer :: a, axis, s
-      in_box = .true.
-      do a = 1, 3
-        axis = op%axes(a)
-        s = op%table%span(axis)
-        if (p(a) <= s) then
-          displacement(axis) = p(a)
-        else if (p(a) >= op%box(a) - s) then
-          displacement(axis) = p(a) - op%box(a)
-        else
-          in_box = .false.
-          displacement(axis) = 0
-        end if
-      end do
-    end subroutine displacement_at
+    subroutine report_entries(done, total)
+      integer, intent(in) :: done, total
+      call progress_line(reporting .and. 4 * done / total /= 4 * (done - 1) / total, 'FFT kernel: ' // str(done) // &
+                         ' of ' // str(total) // ' entries transformed (' // progress_seconds(MPI_Wtime() - start) // ' s)')
+    end subroutine report_entries
   end subroutine transform_kernel
 
-  !> 0-based index of padded site (i, j, k) in this rank's real slab: its data planes, or the whole
-  !> box's planes for the kernel (k counted from the slab's first plane); the fast dimension has 2 (n/2 + 1) slots (FFTW's in-place r2c padding).
+  !> 0-based index of padded site (i, j, k) in this rank's data planes (k counted from its first
+  !> plane); the fast dimension has 2 (n/2 + 1) slots (FFTW's in-place r2c padding).
   pure integer(i8) function padded_site(op, i, j, k)
     type(fft_operator_t), intent(in) :: op
     integer, intent(in) :: i, j, k
@@ -917,7 +879,7 @@ contains
       made = failed == 0
       ! The plans of the first copy (in FFTW's memory as wisdom now): planning them again is quick.
       if (made) call make_pruned_plans(op%comm, op%copies(c), merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans), &
-                                       .false., made)
+                                       made)
       if (.not. made) then   ! no memory for it on some rank: fewer copies, the same products
         call destroy_pruned_transform(op%copies(c))
         op%copies = op%copies(1:c - 1)

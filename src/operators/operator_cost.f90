@@ -13,7 +13,7 @@ module beadmob_operator_cost
 
   ! Rates (seconds) measured on the development machine (one core per rank).
   real(dp), parameter :: quadrature_seconds_l2 = 6.5e-4_dp  ! one canonical block at L = 2
-  real(dp), parameter :: fill_seconds = 6.0e-9_dp      ! one packed kernel entry of one site
+  real(dp), parameter :: fill_seconds = 5.0e-8_dp      ! one packed kernel entry of one site (113081-bead sphere)
   real(dp), parameter :: fft_seconds = 0.75e-9_dp      ! per field, per site and log2(sites), one transform
   real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
   real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product

@@ -8,14 +8,14 @@
 !> full, the data planes transposed back, the middle axis on them and the fast axis on the data
 !> rows. About 0.58 of the flops and half the transpose traffic of the whole transform, and the
 !> same spectrum: FFTW's r2c layout with FFTW_MPI_TRANSPOSED_OUT, [lines][n_slow][n_fast/2 + 1]
-!> [fields] in C order with the middle-axis lines split over the ranks, so the kernel, transformed
-!> once by FFTW-MPI's whole plan (transform_whole), multiplies it frequency by frequency.
+!> [fields] in C order with the middle-axis lines split over the ranks (FFTW-MPI's transposed
+!> layout), where the kernel (kernel_spectrum.f90) multiplies it frequency by frequency.
 !>
 !> Memory: one aligned buffer. The spectrum starts at its beginning; the real data planes
 !> ([planes][n_middle][2 (n_fast/2 + 1)][fields], FFTW's in-place r2c padding, the planes split
 !> over the ranks in FFTW's default blocks) sit behind the region the transposes write, so no
 !> transpose reads and writes the same memory. Together about the size of the whole transform's
-!> in-place buffer, which the whole plan uses for the kernel.
+!> in-place buffer.
 module beadmob_pruned_transform
   use, intrinsic :: iso_c_binding
   use beadmob_kinds, only: dp, i8
@@ -26,7 +26,7 @@ module beadmob_pruned_transform
   implicit none
   private
   public :: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, transform_forward, &
-            transform_backward, transform_whole, free_whole_plan, destroy_pruned_transform
+            transform_backward, destroy_pruned_transform
 
   type :: pruned_transform_t
     integer :: fields = 0
@@ -35,20 +35,16 @@ module beadmob_pruned_transform
     integer :: half = 1                    ! complex numbers of a fast-axis line: box(1) / 2 + 1
     !> This rank's data planes (slow axis) and spectrum lines (middle axis)
     integer(C_INTPTR_T) :: planes = 0, first_plane = 0, lines = 0, first_line = 0
-    !> This rank's planes of the whole box in real space (transform_whole)
-    integer(C_INTPTR_T) :: whole_planes = 0, whole_first_plane = 0
     integer(i8) :: n_frequencies = 0
     type(C_PTR) :: buffer = C_NULL_PTR
-    !> The data planes (real), the whole box's planes (real, in place with the spectrum; for the
-    !> kernel) and the spectrum (fields, frequencies)
-    real(C_DOUBLE), pointer, contiguous :: slab(:) => null(), whole_slab(:) => null()
+    !> The data planes (real) and the spectrum (fields, frequencies)
+    real(C_DOUBLE), pointer, contiguous :: slab(:) => null()
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()   ! the whole buffer
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: flat_spectrum(:) => null()   ! the same, 0-based
     !> fast r2c, middle forward, transpose, slow forward, slow backward, transpose back, middle
-    !> backward, fast c2r; and FFTW-MPI's whole r2c plan
+    !> backward, fast c2r
     type(C_PTR) :: plans(8) = C_NULL_PTR
-    type(C_PTR) :: whole = C_NULL_PTR
     integer(i8) :: slab_offset = 0         ! doubles before the data planes in the buffer
   end type pruned_transform_t
 
@@ -63,8 +59,7 @@ contains
     integer, intent(in) :: comm, fields, box(3), data(3)
     type(pruned_transform_t), intent(inout) :: t
     type(error_t), intent(inout) :: err
-    integer(C_INTPTR_T) :: row, whole_alloc, forward_alloc, backward_alloc, lines, first_line, back_lines(2), &
-                           back_planes(2)
+    integer(C_INTPTR_T) :: row, forward_alloc, backward_alloc, back_lines(2), back_planes(2)
     integer(i8) :: compact, doubles
 
     t%fields = fields
@@ -72,35 +67,24 @@ contains
     t%data = min(data, box)
     t%half = box(1) / 2 + 1
     row = int(t%half, C_INTPTR_T) * fields   ! complex numbers of one (plane, middle index)
-    ! The whole transform (FFTW-MPI, for the kernel): its planes and spectrum lines.
-    whole_alloc = fftw_mpi_local_size_many_transposed(3, [int(box(3), C_INTPTR_T), int(box(2), C_INTPTR_T), &
-                                                         int(t%half, C_INTPTR_T)], int(fields, C_INTPTR_T), &
-                                                      FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, int(comm, C_INT32_T), &
-                                                      t%whole_planes, t%whole_first_plane, t%lines, t%first_line)
     ! The transposes of the data planes: (data planes x middle) <-> (middle x data planes).
     forward_alloc = fftw_mpi_local_size_many_transposed(2, [int(t%data(3), C_INTPTR_T), int(box(2), C_INTPTR_T)], &
                                                         2 * row, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
-                                                        int(comm, C_INT32_T), t%planes, t%first_plane, lines, first_line)
+                                                        int(comm, C_INT32_T), t%planes, t%first_plane, t%lines, t%first_line)
     backward_alloc = fftw_mpi_local_size_many_transposed(2, [int(box(2), C_INTPTR_T), int(t%data(3), C_INTPTR_T)], &
                                                          2 * row, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK, &
                                                          int(comm, C_INT32_T), back_lines(1), back_lines(2), &
                                                          back_planes(1), back_planes(2))
-    if (any(back_lines /= [lines, first_line]) .or. any(back_planes /= [t%planes, t%first_plane])) then
+    if (any(back_lines /= [t%lines, t%first_line]) .or. any(back_planes /= [t%planes, t%first_plane])) then
       call raise(err, 'internal error: the backward transpose of the pruned FFT splits the data otherwise')
-      return
-    end if
-    ! The spectrum must be laid out as the whole plan's, which transforms the kernel.
-    if (lines /= t%lines .or. first_line /= t%first_line) then
-      call raise(err, 'internal error: the pruned FFT splits the spectrum lines as ' // str(int(first_line)) // '+' // &
-                 str(int(lines)) // ', FFTW-MPI as ' // str(int(t%first_line)) // '+' // str(int(t%lines)))
       return
     end if
     t%n_frequencies = int(t%lines, i8) * box(3) * t%half
     ! Doubles: the transposed data planes (and the scratch FFTW's transposes may use) first, the
-    ! data planes behind them (32-byte aligned), at least the whole plan's in-place buffer.
+    ! data planes behind them (32-byte aligned).
     compact = max(int(forward_alloc, i8), int(backward_alloc, i8), 2 * int(t%lines, i8) * t%data(3) * row)
     t%slab_offset = 4 * ((compact + 3) / 4)
-    doubles = max(2 * int(whole_alloc, i8), 2 * t%n_frequencies * fields, &
+    doubles = max(2 * t%n_frequencies * fields, &
                   t%slab_offset + max(int(forward_alloc, i8), int(backward_alloc, i8), &
                                       2 * int(t%planes, i8) * box(2) * row, 1_i8))
     t%buffer = fftw_alloc_real(int(doubles, C_SIZE_T))
@@ -110,20 +94,18 @@ contains
     end if
     call c_f_pointer(t%buffer, t%all, [doubles])
     t%slab => t%all(t%slab_offset + 1:t%slab_offset + 2 * int(t%planes, i8) * box(2) * row)
-    t%whole_slab => t%all(1:2 * int(t%whole_planes, i8) * box(2) * row)
     call c_f_pointer(t%buffer, t%spectrum, [int(fields, i8), max(t%n_frequencies, 1_i8)])
     call c_f_pointer(t%buffer, t%flat_spectrum, [fields * max(t%n_frequencies, 1_i8)])
     t%flat_spectrum(0:) => t%flat_spectrum
   end subroutine size_pruned_transform
 
-  !> Collective. The eight plans of the pruned transform and, with `whole`, FFTW-MPI's whole r2c
-  !> plan, all with `flags`; made = every plan on every rank (otherwise none is kept: with
-  !> FFTW_WISDOM_ONLY the caller plans again without it). Planning may overwrite the buffer.
-  subroutine make_pruned_plans(comm, t, flags, whole, made)
+  !> Collective. The eight plans of the pruned transform with `flags`; made = every plan on every
+  !> rank (otherwise none is kept: with FFTW_WISDOM_ONLY the caller plans again without it).
+  !> Planning may overwrite the buffer.
+  subroutine make_pruned_plans(comm, t, flags, made)
     integer, intent(in) :: comm
     type(pruned_transform_t), intent(inout) :: t
     integer(C_INT), intent(in) :: flags
-    logical, intent(in) :: whole
     logical, intent(out) :: made
     type(fftw_iodim) :: line(1), rows(3), planes(2)
     type(C_PTR) :: slab, start
@@ -173,13 +155,6 @@ contains
                                                                FFTW_MPI_DEFAULT_BLOCK, start, slab, &
                                                                int(comm, C_INT32_T), flags)
     missing = missing + count(.not. c_associated_all([t%plans(transpose_forward), t%plans(transpose_backward)]))
-    if (whole) then
-      t%whole = fftw_mpi_plan_many_dft_r2c(3, [int(t%box(3), C_INTPTR_T), int(t%box(2), C_INTPTR_T), &
-                                              int(t%box(1), C_INTPTR_T)], int(f, C_INTPTR_T), FFTW_MPI_DEFAULT_BLOCK, &
-                                           FFTW_MPI_DEFAULT_BLOCK, t%all, t%spectrum, int(comm, C_INT32_T), &
-                                           ior(flags, FFTW_MPI_TRANSPOSED_OUT))
-      if (.not. c_associated(t%whole)) missing = missing + 1
-    end if
     call MPI_Allreduce(MPI_IN_PLACE, missing, 1, MPI_INTEGER, MPI_SUM, comm, ierr)
     made = missing == 0
     if (.not. made) call free_pruned_plans(t)
@@ -236,20 +211,6 @@ contains
     end if
   end subroutine transform_backward
 
-  !> The whole box's planes (t%whole_slab) -> the spectrum, in place by FFTW-MPI (the kernel,
-  !> which fills the whole box).
-  subroutine transform_whole(t)
-    type(pruned_transform_t), intent(inout) :: t
-    call fftw_execute(t%whole)
-  end subroutine transform_whole
-
-  !> The whole plan is needed for the kernel only.
-  subroutine free_whole_plan(t)
-    type(pruned_transform_t), intent(inout) :: t
-    if (c_associated(t%whole)) call fftw_destroy_plan(t%whole)
-    t%whole = C_NULL_PTR
-  end subroutine free_whole_plan
-
   subroutine free_pruned_plans(t)
     type(pruned_transform_t), intent(inout) :: t
     integer :: k
@@ -257,7 +218,6 @@ contains
       if (c_associated(t%plans(k))) call fftw_destroy_plan(t%plans(k))
       t%plans(k) = C_NULL_PTR
     end do
-    call free_whole_plan(t)
   end subroutine free_pruned_plans
 
   subroutine destroy_pruned_transform(t)
@@ -266,7 +226,6 @@ contains
     if (c_associated(t%buffer)) call fftw_free(t%buffer)
     t%buffer = C_NULL_PTR
     t%slab => null()
-    t%whole_slab => null()
     t%all => null()
     t%spectrum => null()
     t%flat_spectrum => null()
