@@ -57,40 +57,38 @@ contains
     cell_key = cell(1) + index%n_cells(1) * (cell(2) + index%n_cells(2) * cell(3))
   end function cell_key
 
-  !> Indices of the beads whose centre lies strictly closer than `radius` to `point` (cells of
-  !> one d: the ceiling(radius) cells around the point's on each axis).
+  !> Indices of the beads whose centre lies strictly closer than `radius` to `point`: the cells
+  !> (of one d) that [point - radius, point + radius] meets, one binary search per row of them
+  !> (a row's keys are consecutive).
   subroutine beads_within(index, centres, point, radius, found, n_found)
     type(spatial_index_t), intent(in) :: index
     real(dp), intent(in) :: centres(:, :), point(3), radius
     integer(i8), allocatable, intent(inout) :: found(:)
     integer(i8), intent(out) :: n_found
-    integer(i8) :: centre_cell(3), cell(3), first, k, bead
-    integer :: dx, dy, dz, reach
+    integer(i8) :: low(3), high(3), k, bead, last_key, y, z
     integer(i8), allocatable :: grown(:)
 
     n_found = 0
-    reach = max(1, ceiling(radius))
     if (.not. allocated(found)) allocate (found(32))
     if (size(index%keys) == 0) return
-    centre_cell = cell_of(index, point)
-    do dz = -reach, reach
-      do dy = -reach, reach
-        do dx = -reach, reach
-          cell = centre_cell + [dx, dy, dz]
-          if (any(cell < 0) .or. any(cell >= index%n_cells)) cycle
-          first = lower_bound(index%keys, cell_key(index, cell))
-          do k = first, size(index%keys, kind=i8)
-            if (index%keys(k) /= cell_key(index, cell)) exit
-            bead = index%order(k)
-            if (norm2(centres(:, bead) - point) >= radius) cycle
-            n_found = n_found + 1
-            if (n_found > size(found)) then
-              allocate (grown(2 * size(found)))
-              grown(1:size(found)) = found
-              call move_alloc(grown, found)
-            end if
-            found(n_found) = bead
-          end do
+    ! floor is monotone: a centre within radius lies in a cell between these (clamped to the grid).
+    low = max(cell_of(index, point - radius), 0_i8)
+    high = min(cell_of(index, point + radius), index%n_cells - 1)
+    if (any(low > high)) return
+    do z = low(3), high(3)
+      do y = low(2), high(2)
+        last_key = cell_key(index, [high(1), y, z])
+        do k = lower_bound(index%keys, cell_key(index, [low(1), y, z])), size(index%keys, kind=i8)
+          if (index%keys(k) > last_key) exit
+          bead = index%order(k)
+          if (norm2(centres(:, bead) - point) >= radius) cycle
+          n_found = n_found + 1
+          if (n_found > size(found)) then
+            allocate (grown(2 * size(found)))
+            grown(1:size(found)) = found
+            call move_alloc(grown, found)
+          end if
+          found(n_found) = bead
         end do
       end do
     end do

@@ -991,7 +991,8 @@ contains
     integer, intent(in), optional :: map(:)
     real(dp), target :: gathered(op%block_size * (op%block_size + 1) / 2)
     real(dp), pointer, contiguous :: column(:)
-    complex(C_DOUBLE_COMPLEX) :: alone(op%block_size)
+    complex(C_DOUBLE_COMPLEX), target :: alone(op%block_size)
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: image_values(:)
     integer(i8) :: g, f, image, line, slow, fast, n_slow, half
     integer :: j
     n_slow = op%box(3)
@@ -1010,13 +1011,13 @@ contains
           f = 1 + fast + half * (slow + n_slow * line)
           image = 1 + fast + half * (n_slow - slow + n_slow * line)
           do j = 1, size(spectra)
-            if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image
+            if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image: a zero stands in
               alone = 0
-              call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), alone)
+              image_values => alone
             else
-              call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), &
-                                      spectra(j)%values(:, image))
+              image_values => spectra(j)%values(:, image)
             end if
+            call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), image_values)
           end do
         end do
       end do

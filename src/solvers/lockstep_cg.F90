@@ -59,7 +59,7 @@ contains
     real(dp), dimension(size(b)) :: norm, beta, beta_old, step, curvature, curvature_old, scale, tolerance, norm0
     real(dp), allocatable :: diagonal(:, :), off_diagonal(:, :)
     logical :: running(size(b))
-    integer :: iterations(size(b)), reason(size(b)), n, j, i
+    integer :: iterations(size(b)), n, j, i
     PetscErrorCode :: ierr
 
     n = size(b)
@@ -75,7 +75,6 @@ contains
     end do
     running = .true.
     iterations = 0
-    reason = 0
     ! Defined before their first use (an ordered test of an undefined number traps in Debug).
     beta = 0
     beta_old = 1
@@ -192,7 +191,6 @@ contains
       integer, intent(in) :: k, why
       real(dp) :: largest, smallest
       running(k) = .false.
-      reason(k) = why
       call lanczos_extremes(diagonal(:, k), off_diagonal(:, k), min(iterations(k), max_lanczos), largest, smallest)
       call finished(k, iterations(k), why, largest, smallest, stopped)
     end subroutine finish

@@ -1,5 +1,6 @@
 !> Tests src/geometry/geometry_checks.f90; also src/geometry/body_frame.f90 (frames of a box
-!> and a pyramid) and block_range of src/common/parallel.F90.
+!> and a pyramid), beads_within of src/geometry/spatial_index.f90 (against every pair) and
+!> block_range of src/common/parallel.F90.
 !> CTest: test_geometry_np1 and test_geometry_np2 (the program keeps the test's name, test_geometry).
 !> Geometry checks and the body frame on small bead sets whose answers follow by hand.
 program test_geometry
@@ -9,6 +10,7 @@ program test_geometry
   use beadmob_geometry_checks, only: check_bead_model, default_overlap_tolerance
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_parallel, only: run_context_t, make_run_context, block_range
+  use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
   use beadmob_testing
   use mpi, only: MPI_COMM_WORLD
   implicit none
@@ -21,6 +23,7 @@ program test_geometry
   call test_box_frame()
   call test_wedge_frame()
   call test_block_range()
+  call test_beads_within()
   call finish_tests(suite)
 
 contains
@@ -150,4 +153,50 @@ contains
       call check(suite, expected_first == n + 1, 'blocks cover all items')
     end do
   end subroutine test_block_range
+
+  !> beads_within against the distance to every bead: lattice beads (centres on cell borders)
+  !> and a random cloud, query points on and off the beads, radii below, at and above a cell.
+  subroutine test_beads_within()
+    type(error_t) :: err
+    type(spatial_index_t) :: index
+    real(dp) :: centres(3, 400), point(3), radius
+    real(dp), parameter :: radii(5) = [1.0e-6_dp, 0.5_dp, 1.0_dp, 1.7_dp, 3.2_dp]
+    integer(i8), allocatable :: found(:)
+    integer(i8) :: n_found, b
+    integer :: set, q, r, i, mismatches
+    logical :: expected(400), got(400)
+    mismatches = 0
+    do set = 1, 2
+      if (set == 1) then
+        do i = 1, 400   ! a 10 x 8 x 5 block of the unit lattice, shifted off the origin
+          centres(:, i) = [real(mod(i - 1, 10), dp), real(mod((i - 1) / 10, 8), dp), real((i - 1) / 80, dp)] - 3.0_dp
+        end do
+      else
+        call random_number(centres)
+        centres = 7.0_dp * centres - 2.0_dp
+      end if
+      call build_spatial_index(centres, index, err)
+      do q = 1, 60
+        if (q <= 30) then
+          point = centres(:, 13 * q)
+        else
+          call random_number(point)
+          point = 9.0_dp * point - 3.0_dp
+        end if
+        do r = 1, size(radii)
+          radius = radii(r)
+          expected = norm2(centres - spread(point, 2, 400), dim=1) < radius
+          call beads_within(index, centres, point, radius, found, n_found)
+          got = .false.
+          do b = 1, n_found
+            got(found(b)) = .true.
+          end do
+          if (any(expected .neqv. got) .or. n_found /= count(got)) mismatches = mismatches + 1
+        end do
+      end do
+    end do
+    call check(suite, .not. err%failed .and. mismatches == 0, 'beads_within finds exactly the beads closer than the ' // &
+               'radius (600 queries against every bead)')
+  end subroutine test_beads_within
+
 end program test_geometry
