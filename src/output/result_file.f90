@@ -200,6 +200,7 @@ contains
     call write_attribute(group, 'solve_converged_reason', job_result%solves%converged_reason, err)
     call write_attribute(group, 'solve_true_relative_residual', job_result%solves%true_relative_residual, err)
     call write_attribute(group, 'ksp_type', trim(job_result%solves%ksp_type), err)
+    call write_attribute(group, 'solved_together', job_result%solves%solved_together, err)
     call write_attribute(group, 'pc_type', trim(job_result%solves%pc_type), err)
     call write_attribute(group, 'ksp_relative_tolerance', job_result%solves%relative_tolerance, err)
     call write_attribute(group, 'plain_symmetry_error', job_result%solves%plain_symmetry_error, err)
@@ -358,6 +359,7 @@ contains
     call write_attribute(group, 'companion_unknowns_per_bead', job_result%companion_unknowns_per_bead, err)
     call write_attribute(group, 'companion_iterations', job_result%companion_solves%iterations, err)
     call write_attribute(group, 'companion_converged_reason', job_result%companion_solves%converged_reason, err)
+    call write_attribute(group, 'companion_solved_together', job_result%companion_solves%solved_together, err)
     call write_attribute(group, 'companion_true_relative_residual', job_result%companion_solves%true_relative_residual, err)
     call write_attribute(group, 'companion_natural_relative_residual', &
                          job_result%companion_solves%natural_relative_residual, err)

@@ -50,6 +50,9 @@ module beadmob_rigid_body_solve
     integer :: source(6) = 0
     real(dp) :: true_relative_residual(6) = 0.0_dp
     character(len=80) :: ksp_type = '', pc_type = ''
+    !> 1: the motions solved here ran together (lockstep_cg.F90, one batched product per
+    !> iteration); 0: one KSPSolve after another, or nothing solved
+    integer :: solved_together = 0
     real(dp) :: relative_tolerance = 0.0_dp
     !> ||Z - Z^T|| / ||Z|| of the plain estimate Z_mn = c_m . q_n (a measure of the solver error)
     real(dp) :: plain_symmetry_error = 0.0_dp
@@ -373,6 +376,7 @@ contains
     if (solver%single_bead_blocks .and. pc_type == PCSHELL) stats%pc_type = 'single-bead blocks (shell)'
     stats%relative_tolerance = rtol
     stats%resumed = merge(1, 0, solver%loaded)
+    stats%solved_together = merge(1, 0, size(to_solve) > 0 .and. solver%together)
 
   contains
 

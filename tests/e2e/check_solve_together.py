@@ -40,7 +40,8 @@ def run(beadmob, mpiexec, ranks, workdir, input_path, *options):
         h = f["hydrodynamics"]
         record = {key: h.attrs[key][()] for key in ("solve_iterations", "solve_converged_reason", "condition_estimate",
                                                    "companion_iterations", "companion_converged_reason",
-                                                   "solver_error_bound", "companion_solver_error_bound")}
+                                                   "solver_error_bound", "companion_solver_error_bound",
+                                                   "solved_together", "companion_solved_together")}
         record.update(friction=h["friction"][()], multipole_friction=h["multipole_friction"][()],
                       companion_friction=h["companion_friction"][()], bound=solver_promise.bound(h),
                       companion_bound=solver_promise.bound(h, "companion_solver_error_bound"))
@@ -49,6 +50,9 @@ def run(beadmob, mpiexec, ranks, workdir, input_path, *options):
 
 
 def compare(together, apart, name):
+    for key in ("solved_together", "companion_solved_together"):
+        check(int(together[key]) == 1 and int(apart[key]) == 0,
+              f"{name}: {key} is 1 together, 0 apart (got {together[key]}, {apart[key]})")
     for level in ("solve", "companion"):
         its_t, its_a = together[f"{level}_iterations"], apart[f"{level}_iterations"]
         check(np.abs(its_t - its_a).max() <= 1, f"{name}, {level}: iterations together {its_t.tolist()}, "
@@ -81,6 +85,7 @@ def main(beadmob, mpiexec, ranks, workdir, input_path):
         compare(together, apart, f"operator {operator}")
     gmres = run(beadmob, mpiexec, ranks, workdir, input_path, "-ksp_type", "gmres")
     check(gmres["solve_converged_reason"].min() > 0, f"-ksp_type gmres converges: {gmres['solve_converged_reason'].tolist()}")
+    check(int(gmres["solved_together"]) == 0, "-ksp_type gmres: solved one KSPSolve after another (solved_together 0)")
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")
     print("check_solve_together: all checks passed")
