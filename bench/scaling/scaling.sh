@@ -8,6 +8,7 @@
 # One run per row otherwise (the large runs take minutes). Writes bench/scaling/scaling.csv, .md, .png.
 # Needs a Release build (scripts/build.sh). SCALING_RADII overrides the 2-rank sphere radii.
 # ESTIMATES_ONLY=1 redoes only the dry runs of the kept runs (after a change of the estimate).
+# PREV_LABEL names the previous build in the table (e.g. its commit).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/scripts/mpi-env.sh"

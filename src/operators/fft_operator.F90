@@ -189,7 +189,8 @@ contains
   pure subroutine fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, sites, real_planes, freq_planes, data_planes, frequencies, half, log_sites, pruned
+    real(dp) :: nb, packed, sites, freq_planes, data_planes, frequencies, half, log_sites, pruned, round_entry
+    real(dp) :: copies, allowance, low_buffer
     integer :: data(3)
     nb = size%nb
     packed = nb * (nb + 1) / 2
@@ -205,18 +206,26 @@ contains
               + sites * log(real(cost%fft_box(3), dp))) / log(2.0_dp)
     ! FFTW slabs: real space split along the slow axis, the transposed spectrum along the middle one.
     half = cost%fft_box(1) / 2 + 1
-    real_planes = real(ceiling(real(cost%fft_box(3), dp) / size%n_ranks), dp)
     data_planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     freq_planes = real(ceiling(real(cost%fft_box(2), dp) / size%n_ranks), dp)
     frequencies = freq_planes * cost%fft_box(3) * half
     cost%kernel = 8 * packed * freq_planes * (cost%fft_box(3) / 2 + 1) * half   ! k_slow <= n_slow / 2
-    cost%fft_buffer = 16 * nb * max(frequencies, real_planes * cost%fft_box(2) * half, &
+    cost%fft_buffer = 16 * nb * max(frequencies, &
                                     (freq_planes * data(3) + data_planes * cost%fft_box(2)) * half)
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
-    cost%companion = cost%fft_buffer * size%nb_low / nb * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
-    ! With the copies of the batch that solves six motions together (make_copies).
-    cost%fft_buffer = cost%fft_buffer * (1 + min(real(max_copies - 1, dp), &
-                                                 real(floor(max(cost%kernel / 4, 2.0_dp**26) / cost%fft_buffer), dp)))
+    ! The kernel's rounds work in the buffer; one entry per rank that does not fit gets its own
+    ! scratch (kernel_spectrum.f90: octant, what a rank sends and receives).
+    round_entry = 8 * (product(real(cost%fft_box / 2 + 1, dp)) &
+                       + (cost%fft_box(2) + size%n_ranks * freq_planes) * (cost%fft_box(3) / 2 + 1) * half)
+    if (round_entry > cost%fft_buffer) cost%transient = cost%transient + round_entry
+    ! With the copies of the batch that solves the motions together (make_copies: one per further
+    ! motion, within a quarter of the kernel or 64 MiB), for order L and for the companion.
+    copies = real(min(max_copies, max(size%solves, 1)) - 1, dp)
+    allowance = max(cost%kernel / 4, 2.0_dp**26)
+    low_buffer = cost%fft_buffer * size%nb_low / nb
+    cost%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
+    if (low_buffer > 0) cost%companion = cost%companion + low_buffer * min(copies, real(floor(allowance / low_buffer), dp))
+    cost%fft_buffer = cost%fft_buffer * (1 + min(copies, real(floor(allowance / cost%fft_buffer), dp)))
     ! The kernel from its octant, the entries split over the ranks (kernel_spectrum.f90): each
     ! entry formed at the octant's displacements, its three passes of extended lines and its
     ! exchange (about six transform units per point, measured on a 113081-bead sphere).

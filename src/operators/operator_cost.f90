@@ -31,6 +31,7 @@ module beadmob_operator_cost
     integer :: spans(3) = 0                 ! lattice spans (lattice models) or the pfft grid's
     logical :: on_lattice = .false.
     real(dp) :: near_radius = 0             ! the pfft operator's radius of exact pairs (d)
+    integer :: solves = 6                   ! motions solved together (a batched product's vectors)
   end type job_size_t
 
   !> Per rank, largest rank: bytes held while the solves run (blocks: pair blocks or canonical

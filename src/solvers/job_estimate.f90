@@ -83,6 +83,7 @@ contains
     size%nb = real(e%unknowns_per_bead, dp)
     if (companion .and. order >= 2) size%nb_low = real(basis_size(order - 1, max(potential_order - 1, 0)), dp)
     size%spans = spans
+    size%solves = n_solves
     size%on_lattice = on_lattice
     if (present(near_radius)) size%near_radius = near_radius
     call new_operator(operator_name, op)
