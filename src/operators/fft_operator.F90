@@ -714,17 +714,24 @@ contains
     logical, intent(in) :: reporting   ! a progress line about every quarter (rank 0)
     real(dp), intent(in) :: start      ! MPI_Wtime of the set-up's start
     type(kernel_octant_t) :: octant
-    integer :: nb, n_packed, e, i, s, t, stat
+    integer :: nb, n_packed, e, i, s, t, stat, failed
     integer, allocatable :: unknown(:)
     integer(i8) :: kept
+    PetscErrorCode :: ierr   ! also the MPI error code
 
     nb = op%block_size
     n_packed = nb * (nb + 1) / 2
     kept = op%transform%lines * (op%box(3) / 2 + 1) * op%transform%half
     allocate (op%kernel(n_packed, max(kept, 1_i8)), stat=stat)
+    ! Agreed on by the ranks before the collective transform.
+    failed = merge(1, 0, stat /= 0)
+    call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     if (stat /= 0) then
       call raise(err, 'could not allocate the FFT kernel (' // str(8.0_dp * n_packed * kept / 1.0e9_dp) // &
                  ' GB on this rank)')
+      return
+    else if (failed /= 0) then
+      call raise(err, 'could not allocate the FFT kernel on another rank')
       return
     end if
     ! Packed entry e -> the unknowns (row(e), column(e)) in slots (s, t), s <= t, and its parity
@@ -755,15 +762,7 @@ contains
     octant%lines = op%transform%lines
     ! The 1/M of the inverse transform, folded into the kernel once.
     call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
-                         op%transform%all, op%kernel, err, report_entries)
-
-  contains
-
-    subroutine report_entries(done, total)
-      integer, intent(in) :: done, total
-      call progress_line(reporting .and. 4 * done / total /= 4 * (done - 1) / total, 'FFT kernel: ' // str(done) // &
-                         ' of ' // str(total) // ' entries transformed (' // progress_seconds(MPI_Wtime() - start) // ' s)')
-    end subroutine report_entries
+                         op%transform%all, op%kernel, err, reporting, start)
   end subroutine transform_kernel
 
   !> 0-based index of padded site (i, j, k) in this rank's data planes (k counted from its first

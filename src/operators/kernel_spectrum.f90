@@ -17,9 +17,10 @@ module beadmob_kernel_spectrum
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_fftw
+  use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_block_table, only: block_table_t, lattice_block_entries
   use mpi, only: MPI_Allgather, MPI_Allreduce, MPI_Alltoallv, MPI_Comm_rank, MPI_Comm_size, MPI_IN_PLACE, &
-                 MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, MPI_MIN
+                 MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, MPI_MIN, MPI_MAX, MPI_Wtime
   implicit none
   private
   public :: kernel_octant_t, kernel_spectrum
@@ -46,8 +47,9 @@ contains
   !> inversion the imaginary part) at this rank's frequencies g ([lines][k_slow <= n_slow/2]
   !> [k_fast <= n_fast/2], the fast index first), from the compact block table. `scratch`: memory
   !> the rounds may use (the operator's FFT buffer, not yet needed); more is allocated only if it
-  !> cannot hold one entry per rank. progress(done, total) is called on every rank after each round.
-  subroutine kernel_spectrum(comm, table, octant, scale, scratch, kernel, err, progress)
+  !> cannot hold one entry per rank. reporting (rank 0): a progress line about every quarter of
+  !> the entries, timed from `start` (MPI_Wtime).
+  subroutine kernel_spectrum(comm, table, octant, scale, scratch, kernel, err, reporting, start)
     integer, intent(in) :: comm
     type(block_table_t), intent(in) :: table
     type(kernel_octant_t), intent(in) :: octant
@@ -55,12 +57,10 @@ contains
     real(dp), intent(inout), target, contiguous :: scratch(:)
     real(dp), intent(out) :: kernel(:, :)
     type(error_t), intent(inout) :: err
-    interface
-      subroutine progress(done, total)
-        integer, intent(in) :: done, total
-      end subroutine progress
-    end interface
-    integer :: m(3), n_entries, n_ranks, rank, per_rank, round, n_rounds, mine, first_mine, q, ierr, count_q, first_q
+    logical, intent(in) :: reporting
+    real(dp), intent(in) :: start
+    integer :: m(3), n_entries, n_ranks, rank, per_rank, round, n_rounds, mine, first_mine, q, ierr, count_q, first_q, b, &
+               failed, done
     integer(i8) :: points, kept, per_entry, g, offset
     integer(C_INTPTR_T) :: my_lines(2)
     integer(C_INTPTR_T), allocatable :: all_lines(:, :)
@@ -78,22 +78,30 @@ contains
     my_lines = [octant%first_line, octant%lines]
     allocate (all_lines(2, 0:n_ranks - 1))
     call MPI_Allgather(my_lines, 2, MPI_INTEGER8, all_lines, 2, MPI_INTEGER8, comm, ierr)
-    if (size(kernel, 2) /= octant%lines * kept .and. octant%lines > 0) then
-      call raise(err, 'internal error: the kernel holds ' // str(size(kernel, 2)) // ' frequencies, its lines ' // &
-                 str(octant%lines * kept))
+    ! Agreed on by the ranks: every rank leaves, or none.
+    failed = merge(1, 0, size(kernel, 2) /= octant%lines * kept .and. octant%lines > 0)
+    call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed /= 0) then
+      call raise(err, 'internal error: the FFT kernel is not sized for its spectrum lines on some rank')
       return
     end if
     ! Doubles per entry a rank holds in a round: its octant values, what it sends (every rank's
     ! lines) and what it receives (its lines, from every rank).
     per_entry = points + octant%box(2) * kept + n_ranks * octant%lines * kept
     per_rank = int(min(int(max_round_entries, i8), size(scratch, kind=i8) / per_entry))
-    ! MPI counts are default integers.
-    per_rank = int(min(int(per_rank, i8), int(huge(1), i8) / (int(octant%box(2), i8) * kept)))
+    ! MPI counts and offsets are default integers.
+    per_rank = int(min(int(per_rank, i8), int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)))
     call MPI_Allreduce(MPI_IN_PLACE, per_rank, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
     room => scratch
     if (per_rank < 1) then
       per_rank = 1
-      allocate (own_scratch(per_entry))
+      allocate (own_scratch(per_entry), stat=failed)
+      call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+      if (failed /= 0) then
+        call raise(err, 'could not allocate the FFT kernel''s scratch (' // str(8.0_dp * per_entry / 1.0e9_dp) // &
+                   ' GB per rank)')
+        return
+      end if
       room => own_scratch
     end if
     ! The entries of a round side by side at each point: every pass reads and writes them together.
@@ -132,8 +140,8 @@ contains
         count_q = entries_of(q)
         if (count_q == 0) cycle
         first_q = round * per_rank * n_ranks + q * per_rank + 1
-        do g = 1, count_q
-          factor(g) = scale * final_sign(octant%parity(first_q + g - 1, :))
+        do b = 1, count_q
+          factor(b) = scale * final_sign(octant%parity(first_q + b - 1, :))
         end do
         offset = receive_offsets(q)
         do g = 1, octant%lines * kept
@@ -141,7 +149,10 @@ contains
           offset = offset + count_q
         end do
       end do
-      call progress(min((round + 1) * per_rank * n_ranks, n_entries), n_entries)
+      done = min((round + 1) * per_rank * n_ranks, n_entries)
+      call progress_line(reporting .and. 4 * done / n_entries /= 4 * (done - per_rank * n_ranks) / n_entries, &
+                         'FFT kernel: ' // str(done) // ' of ' // str(n_entries) // ' entries transformed (' // &
+                         progress_seconds(MPI_Wtime() - start) // ' s)')
     end do
 
   contains
