@@ -1,5 +1,5 @@
-!> The part of FFTW 3 that beadmob calls (fft_operator.F90, pruned_transform.f90), declared here
-!> once.
+!> The part of FFTW 3 that beadmob calls (fft_operator.F90, pruned_transform.f90,
+!> kernel_spectrum.f90), declared here once.
 module beadmob_fftw
   use, intrinsic :: iso_c_binding
   implicit none
@@ -10,8 +10,6 @@ module beadmob_fftw
   ! included because gfortran's INCLUDE (and cpp) does not find its nested include 'fftw3.f03'
   ! without an -I for the FFTW include directory, which the build does not pass.
   integer(C_INT), parameter :: FFTW_MEASURE = 0, FFTW_ESTIMATE = 64, FFTW_WISDOM_ONLY = 2097152
-  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_IN = 536870912
-  integer(C_INT), parameter :: FFTW_MPI_TRANSPOSED_OUT = 1073741824
   integer(C_INTPTR_T), parameter :: FFTW_MPI_DEFAULT_BLOCK = 0
   integer(C_INT), parameter :: FFTW_FORWARD = -1, FFTW_BACKWARD = 1
 
@@ -33,40 +31,6 @@ module beadmob_fftw
       integer(C_INT32_T), value :: comm
       integer(C_INTPTR_T), intent(out) :: local_n0, local_0_start, local_n1, local_1_start
     end function fftw_mpi_local_size_many_transposed
-    type(C_PTR) function fftw_mpi_plan_many_dft_r2c(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
-      bind(C, name='fftw_mpi_plan_many_dft_r2c_f03')
-      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
-      integer(C_INT), value :: rnk
-      integer(C_INTPTR_T), dimension(*), intent(in) :: n
-      integer(C_INTPTR_T), value :: howmany, iblock, oblock
-      real(C_DOUBLE), dimension(*), intent(out) :: in
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
-      integer(C_INT32_T), value :: comm
-      integer(C_INT), value :: flags
-    end function fftw_mpi_plan_many_dft_r2c
-    type(C_PTR) function fftw_mpi_plan_many_dft_c2r(rnk, n, howmany, iblock, oblock, in, out, comm, flags) &
-      bind(C, name='fftw_mpi_plan_many_dft_c2r_f03')
-      import :: C_PTR, C_INT, C_INTPTR_T, C_INT32_T, C_DOUBLE, C_DOUBLE_COMPLEX
-      integer(C_INT), value :: rnk
-      integer(C_INTPTR_T), dimension(*), intent(in) :: n
-      integer(C_INTPTR_T), value :: howmany, iblock, oblock
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: in
-      real(C_DOUBLE), dimension(*), intent(out) :: out
-      integer(C_INT32_T), value :: comm
-      integer(C_INT), value :: flags
-    end function fftw_mpi_plan_many_dft_c2r
-    subroutine fftw_mpi_execute_dft_r2c(p, in, out) bind(C, name='fftw_mpi_execute_dft_r2c')
-      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
-      type(C_PTR), value :: p
-      real(C_DOUBLE), dimension(*), intent(inout) :: in
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(out) :: out
-    end subroutine fftw_mpi_execute_dft_r2c
-    subroutine fftw_mpi_execute_dft_c2r(p, in, out) bind(C, name='fftw_mpi_execute_dft_c2r')
-      import :: C_PTR, C_DOUBLE, C_DOUBLE_COMPLEX
-      type(C_PTR), value :: p
-      complex(C_DOUBLE_COMPLEX), dimension(*), intent(inout) :: in
-      real(C_DOUBLE), dimension(*), intent(out) :: out
-    end subroutine fftw_mpi_execute_dft_c2r
     integer(C_INT) function fftw_import_wisdom_from_filename(path) bind(C, name='fftw_import_wisdom_from_filename')
       import :: C_INT, C_CHAR
       character(kind=C_CHAR), dimension(*), intent(in) :: path
