@@ -84,7 +84,6 @@ module beadmob_fft_operator
     !> K^ at the mirrored frequency (k_slow -> -k_slow) is D K^ D, so the kernel is kept for
     !> k_slow <= n_slow / 2 only (module header).
     real(dp), allocatable :: mirror_sign(:)
-    real(dp), allocatable :: axis_sign(:, :)   ! (slot, FFT axis): D of each axis' mirror (find_mirror_signs)
     !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
     !> for this rank's frequencies with k_slow <= n_slow / 2 ([lines][n_slow/2 + 1][n_fast/2 + 1]):
     !> the real part, or for an even-odd entry the imaginary part.
@@ -322,6 +321,7 @@ contains
     integer :: failed_here, failed_anywhere
     logical :: reporting, keeping
     real(dp) :: start
+    real(dp), allocatable :: axis_sign(:, :)
 
     reporting = .false.
     if (present(report)) reporting = report
@@ -344,8 +344,8 @@ contains
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
     if (.not. err%failed) call plan_transforms(comm, op, err)
-    if (.not. err%failed) call find_mirror_signs(op, err)
-    if (.not. err%failed) call transform_kernel(comm, op, err, reporting, start)
+    if (.not. err%failed) call find_mirror_signs(op, axis_sign, err)
+    if (.not. err%failed) call transform_kernel(comm, op, axis_sign, err, reporting, start)
     call free_canonical_blocks(op%table)   ! the kernel holds them now
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
@@ -565,11 +565,12 @@ contains
   !> axis_sign(:, a): D_M of the mirror M of FFT axis a (a lattice symmetry, T4) is diagonal in
   !> the real basis, ±1 per unknown (cos and sin of m phi, and the (n + m) parity along z, keep or
   !> flip their sign), in slot order. A(M d) = D_M A(d) D_M makes every kernel entry even or odd
-  !> along each axis (kernel_spectrum.f90) and gives K^ at the slow axis' mirrored frequency as
-  !> D K^ D (mirror_sign). Refused if a D_M of the table is not such a diagonal (a basis without
-  !> that structure).
-  subroutine find_mirror_signs(op, err)
+  !> along each axis (kernel_spectrum.f90; axis_sign is needed only to make the kernel) and gives
+  !> K^ at the slow axis' mirrored frequency as D K^ D (op%mirror_sign, the slow axis' column).
+  !> Refused if a D_M of the table is not such a diagonal (a basis without that structure).
+  subroutine find_mirror_signs(op, axis_sign, err)
     type(fft_operator_t), intent(inout) :: op
+    real(dp), allocatable, intent(out) :: axis_sign(:, :)
     type(error_t), intent(inout) :: err
     integer :: mirror, a, axis
     real(dp), parameter :: tolerance = 1.0e-10_dp
@@ -577,12 +578,12 @@ contains
       call raise(err, 'internal error: the FFT operator needs the lattice symmetries of its block table')
       return
     end if
-    allocate (op%axis_sign(op%block_size, 3))
+    allocate (axis_sign(op%block_size, 3))
     do axis = 1, 3
       mirror = 1 + 2**(op%axes(axis) - 1)   ! identity permutation, one sign flipped (symmetry_matrix)
       associate (d => op%table%transforms(:, :, mirror))
         do a = 1, op%block_size
-          op%axis_sign(op%slot(a), axis) = sign(1.0_dp, d(a, a))
+          axis_sign(op%slot(a), axis) = sign(1.0_dp, d(a, a))
         end do
         if (maxval(abs(abs(d) - identity(op%block_size))) > tolerance) then
           call raise(err, 'the FFT operator needs a basis that a mirror of the lattice maps onto ± itself; the ' // &
@@ -592,7 +593,7 @@ contains
         end if
       end associate
     end do
-    op%mirror_sign = op%axis_sign(:, 3)
+    op%mirror_sign = axis_sign(:, 3)
   end subroutine find_mirror_signs
 
   pure function identity(n) result(matrix)
@@ -707,9 +708,10 @@ contains
   !> k_slow <= n_slow / 2, from the octant of displacements by the mirror parities of the
   !> entries (kernel_spectrum.f90); the operator's buffer, not needed before the first product,
   !> is the rounds' scratch.
-  subroutine transform_kernel(comm, op, err, reporting, start)
+  subroutine transform_kernel(comm, op, axis_sign, err, reporting, start)
     MPI_Comm, intent(in) :: comm
     type(fft_operator_t), intent(inout) :: op
+    real(dp), intent(in) :: axis_sign(:, :)   ! (slot, FFT axis), find_mirror_signs
     type(error_t), intent(inout) :: err
     logical, intent(in) :: reporting   ! a progress line about every quarter (rank 0)
     real(dp), intent(in) :: start      ! MPI_Wtime of the set-up's start
@@ -746,7 +748,7 @@ contains
         e = e + 1
         octant%row(e) = unknown(s)
         octant%column(e) = unknown(t)
-        octant%parity(e, :) = nint(op%axis_sign(s, :) * op%axis_sign(t, :))
+        octant%parity(e, :) = nint(axis_sign(s, :) * axis_sign(t, :))
         ! The three mirrors make the inversion: an entry odd under it (an even-odd slot pair)
         ! is odd along an odd number of axes.
         if ((s <= op%n_even .and. t > op%n_even) .neqv. mod(count(octant%parity(e, :) < 0), 2) == 1) then
