@@ -51,6 +51,11 @@ module beadmob_fft_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
   use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
+  use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
+                                      mirror_forward, mirror_backward, make_mirror_buffer, destroy_mirror_buffer, &
+                                      destroy_mirror_transform, n_classes, class_signs
+  use beadmob_mirror_classes, only: mirror_classes_t, lattice_mirrors, make_mirror_classes, destroy_mirror_classes, &
+                                    classes_of, fold_class, unfold_class
   use beadmob_unit_lattice, only: lattice_tolerance
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
@@ -78,8 +83,23 @@ module beadmob_fft_operator
     !> The pruned transforms of the nb fields (pruned_transform.f90): buffer, plans, this rank's
     !> data planes and frequencies
     type(pruned_transform_t) :: transform
-    integer :: n_even = 0                   ! unknowns of even parity (slots 1..n_even)
+    !> Slots 1..n_even: the even block of the frequency product (even under inversion; in the
+    !> mirror classes, even along the slow axis)
+    integer :: n_even = 0
     integer, allocatable :: slot(:)         ! field slot of each unknown
+    logical, allocatable :: inversion_even(:)   ! by slot
+    !> Mirror classes (mirror_classes.F90): the bead set is symmetric under the mirrors of the
+    !> fast and the middle axis, and each product runs class by class on the mirror transform
+    !> (mirror_transform.f90) instead of the pruned one. Slots are ordered by their signs
+    !> (slow, fast, middle); field_sign(slot, 1:2) the fast and middle ones; class_factor(e, c)
+    !> the sign of packed entry e in class c relative to the kernel (theory.md T4).
+    logical :: mirrored = .false.
+    logical :: use_mirrors = .true.         ! set before create: mirror classes where they apply
+    type(mirror_transform_t) :: reduced
+    type(mirror_buffer_t), allocatable :: buffers(:)   ! the first, then the batch's copies
+    Vec, allocatable :: buffer_slabs(:)
+    type(mirror_classes_t) :: classes
+    real(dp), allocatable :: field_sign(:, :), class_factor(:, :)
     !> Sign of each slot's field under the mirror of the slow FFT axis, D = diag(mirror_sign):
     !> K^ at the mirrored frequency (k_slow -> -k_slow) is D K^ D, so the kernel is kept for
     !> k_slow <= n_slow / 2 only (module header).
@@ -155,6 +175,7 @@ contains
     Mat :: matrix
     if (allocated(options%cache_file)) this%table%cache_file = options%cache_file
     this%measure_plans = options%measure_plans
+    this%use_mirrors = options%mirror_classes
     call create_fft_operator(comm, basis, centres, first_bead, n_local, this, matrix, err, options%report, &
                              keep_lattice=allocated(options%companion_unknowns))
     if (err%failed) return
@@ -343,8 +364,16 @@ contains
                                              ' read from the cache (' // progress_seconds(MPI_Wtime() - start) // ' s)')
     if (.not. err%failed) call order_by_parity(basis, op)
     if (.not. err%failed) call check_symmetries(op, err)
-    if (.not. err%failed) call plan_transforms(comm, op, err)
+    if (.not. err%failed) call choose_axes(op)
+    if (.not. err%failed .and. op%mirrored) call order_by_mirrors(op)
     if (.not. err%failed) call find_mirror_signs(op, axis_sign, err)
+    if (.not. err%failed) then
+      if (op%mirrored) then
+        call plan_mirror_transform(comm, op, err)
+      else
+        call plan_transforms(comm, op, err)
+      end if
+    end if
     if (.not. err%failed) call transform_kernel(comm, op, axis_sign, err, reporting, start)
     call free_canonical_blocks(op%table)   ! the kernel holds them now
     failed_here = merge(1, 0, err%failed)
@@ -398,6 +427,9 @@ contains
       slot_parent(companion%slot(a)) = parent_slot(a)
     end do
     companion%mirror_sign = parent%mirror_sign(slot_parent)
+    companion%inversion_even = parent%inversion_even(slot_parent)
+    companion%axes = parent%axes
+    companion%mirrored = parent%mirrored
     allocate (companion%kernel_map(size(unknowns) * (size(unknowns) + 1) / 2))
     do t = 1, size(unknowns)
       do s = 1, t
@@ -406,10 +438,18 @@ contains
         companion%kernel_map(s + t * (t - 1) / 2) = ps + pt * (pt - 1) / 2
       end do
     end do
-    call plan_transforms(comm, companion, err)
-    ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
-    if (.not. err%failed .and. companion%transform%n_frequencies /= parent%transform%n_frequencies) &
-      call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
+    if (companion%mirrored) then
+      companion%field_sign = parent%field_sign(slot_parent, :)
+      companion%class_factor = parent%class_factor(companion%kernel_map, :)
+      call plan_mirror_transform(comm, companion, err)
+      ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
+      if (.not. err%failed .and. companion%reduced%n_frequencies /= parent%reduced%n_frequencies) &
+        call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
+    else
+      call plan_transforms(comm, companion, err)
+      if (.not. err%failed .and. companion%transform%n_frequencies /= parent%transform%n_frequencies) &
+        call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
+    end if
     companion%shared_kernel => parent%kernel
     call finish_shell(comm, companion, matrix, err, .false.)
   end subroutine create_fft_companion
@@ -425,8 +465,14 @@ contains
     PetscInt :: local_size, global_size
     integer :: failed_here, failed_anywhere
 
-    if (.not. err%failed) call make_slab_scatter(comm, op, err)
-    ! the scatter holds the sites now
+    if (.not. err%failed) then
+      if (op%mirrored) then
+        call make_class_maps(comm, op, err)
+      else
+        call make_slab_scatter(comm, op, err)
+      end if
+    end if
+    ! the scatters hold the sites now
     if (allocated(op%table%lattice) .and. .not. keep_lattice) deallocate (op%table%lattice)
     failed_here = merge(1, 0, err%failed)
     call MPI_Allreduce(failed_here, failed_anywhere, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
@@ -451,8 +497,10 @@ contains
     Mat, intent(inout) :: matrix
     PetscErrorCode :: ierr
     if (op%created) then
-      PetscCallA(VecScatterDestroy(op%to_slab, ierr))
-      PetscCallA(VecDestroy(op%slab, ierr))
+      if (.not. op%mirrored) then
+        PetscCallA(VecScatterDestroy(op%to_slab, ierr))
+        PetscCallA(VecDestroy(op%slab, ierr))
+      end if
       PetscCallA(MatDestroy(matrix, ierr))
       op%created = .false.
     end if
@@ -464,7 +512,23 @@ contains
 
   subroutine free_fftw(op)
     type(fft_operator_t), intent(inout) :: op
+    integer :: k
+    PetscErrorCode :: ierr
     call destroy_pruned_transform(op%transform)
+    call destroy_mirror_classes(op%classes)
+    if (allocated(op%buffer_slabs)) then
+      do k = 1, size(op%buffer_slabs)
+        PetscCallA(VecDestroy(op%buffer_slabs(k), ierr))
+      end do
+      deallocate (op%buffer_slabs)
+    end if
+    if (allocated(op%buffers)) then
+      do k = 1, size(op%buffers)
+        call destroy_mirror_buffer(op%buffers(k))
+      end do
+      deallocate (op%buffers)
+    end if
+    call destroy_mirror_transform(op%reduced)
   end subroutine free_fftw
 
   !> Every centre within lattice_tolerance of a point of the unit lattice through the lowest corner
@@ -501,7 +565,7 @@ contains
       even(a) = inversion_parity(basis%degree(a), basis%family(a)) == 1
     end do
     op%n_even = count(even)
-    allocate (op%slot(basis%size))
+    allocate (op%slot(basis%size), op%inversion_even(basis%size))
     next_even = 0
     next_odd = op%n_even
     do a = 1, basis%size
@@ -512,6 +576,7 @@ contains
         next_odd = next_odd + 1
         op%slot(a) = next_odd
       end if
+      op%inversion_even(op%slot(a)) = even(a)
     end do
   end subroutine order_by_parity
 
@@ -537,7 +602,7 @@ contains
     n_half = (product(int(width, i8)) - 1) / 2   ! displacements after d = 0 in box order
     stride = max(1_i8, n_half / 4096)
     do a = 1, op%block_size
-      signs(a) = merge(1.0_dp, -1.0_dp, op%slot(a) <= op%n_even)
+      signs(a) = merge(1.0_dp, -1.0_dp, op%inversion_even(op%slot(a)))
     end do
     largest = 0.0_dp
     worst_transpose = 0.0_dp
@@ -594,6 +659,7 @@ contains
       end associate
     end do
     op%mirror_sign = axis_sign(:, 3)
+    if (op%mirrored) op%field_sign = axis_sign(:, 1:2)
   end subroutine find_mirror_signs
 
   pure function identity(n) result(matrix)
@@ -630,7 +696,6 @@ contains
       call fftw_mpi_init()
       fftw_mpi_started = .true.
     end if
-    op%axes = fft_axes(op%table%span)
     op%box = fft_padded(op%table%span(op%axes))
     ! PETSc's 32-bit indices address the vector of the data planes (nb doubles per padded site).
     entries = real(op%block_size, dp) * 2 * (op%box(1) / 2 + 1) * op%box(2) * op%box(3)
@@ -723,7 +788,11 @@ contains
 
     nb = op%block_size
     n_packed = nb * (nb + 1) / 2
-    kept = op%transform%lines * (op%box(3) / 2 + 1) * op%transform%half
+    if (op%mirrored) then
+      kept = op%reduced%lines * (op%box(3) / 2 + 1) * op%reduced%half(1)
+    else
+      kept = op%transform%lines * (op%box(3) / 2 + 1) * op%transform%half
+    end if
     allocate (op%kernel(n_packed, max(kept, 1_i8)), stat=stat)
     ! Agreed on by the ranks before the collective transform.
     failed = merge(1, 0, stat /= 0)
@@ -751,7 +820,7 @@ contains
         octant%parity(e, :) = nint(axis_sign(s, :) * axis_sign(t, :))
         ! The three mirrors make the inversion: an entry odd under it (an even-odd slot pair)
         ! is odd along an odd number of axes.
-        if ((s <= op%n_even .and. t > op%n_even) .neqv. mod(count(octant%parity(e, :) < 0), 2) == 1) then
+        if ((op%inversion_even(s) .neqv. op%inversion_even(t)) .neqv. mod(count(octant%parity(e, :) < 0), 2) == 1) then
           call raise(err, 'internal error: the lattice mirrors of kernel entry (' // str(s) // ', ' // str(t) // &
                      ') disagree with its inversion parity')
           return
@@ -760,11 +829,19 @@ contains
     end do
     octant%box = op%box
     octant%axes = op%axes
-    octant%first_line = op%transform%first_line
-    octant%lines = op%transform%lines
     ! The 1/M of the inverse transform, folded into the kernel once.
-    call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
-                         op%transform%all, op%kernel, err, reporting, start)
+    if (op%mirrored) then
+      octant%first_line = op%reduced%first_line
+      octant%lines = op%reduced%lines
+      call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
+                           op%buffers(1)%all, op%kernel, err, reporting, start)
+      call find_class_factors(op, octant)
+    else
+      octant%first_line = op%transform%first_line
+      octant%lines = op%transform%lines
+      call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
+                           op%transform%all, op%kernel, err, reporting, start)
+    end if
   end subroutine transform_kernel
 
   !> 0-based index of padded site (i, j, k) in this rank's data planes (k counted from its first
@@ -854,6 +931,11 @@ contains
     Vec, intent(in) :: x(:)
     Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
     integer :: first, batch
+    if (this%mirrored) then
+      if (size(this%buffers) == 1) call make_class_buffers(this, 4 * size(x))
+      call mirrored_product(this, x, y)
+      return
+    end if
     if (.not. allocated(this%copies)) call make_copies(this, size(x))
     batch = 1 + size(this%copies)
     do first = 1, size(x), batch
@@ -907,6 +989,14 @@ contains
     class(fft_operator_t), intent(inout) :: this
     PetscErrorCode :: ierr
     integer :: c
+    if (this%mirrored .and. allocated(this%buffers)) then
+      do c = 2, size(this%buffers)
+        PetscCallA(VecDestroy(this%buffer_slabs(c), ierr))
+        call destroy_mirror_buffer(this%buffers(c))
+      end do
+      this%buffers = this%buffers(1:1)
+      this%buffer_slabs = this%buffer_slabs(1:1)
+    end if
     if (.not. allocated(this%copies)) return
     do c = 1, size(this%copies)
       PetscCallA(VecDestroy(this%copy_slabs(c), ierr))
@@ -927,6 +1017,10 @@ contains
     type(pruned_transform_t), pointer :: t
     integer :: j, nb
 
+    if (op%mirrored) then
+      call mirrored_product(op, x, y)
+      return
+    end if
     nb = op%block_size
     do j = 1, size(x)
       ! Sites without a bead hold zero; the scatter fills the bead sites.
@@ -1066,4 +1160,299 @@ contains
       call multiply_frequency_any(n_even, packed, mirror, spectrum, image)
     end select
   end subroutine multiply_frequency
+  !> The FFT axes (op%axes) and whether the products run in mirror classes (op%mirrored): when
+  !> the bead set is its own mirror image along at least two lattice axes, two of them are the
+  !> fast and the middle axis (the smaller fast), the other the slow one (of three, the largest).
+  subroutine choose_axes(op)
+    type(fft_operator_t), intent(inout) :: op
+    logical :: mirrors(3)
+    integer :: padded(3), slow, a
+    op%axes = fft_axes(op%table%span)
+    op%mirrored = .false.
+    if (.not. op%use_mirrors) return
+    mirrors = lattice_mirrors(op%table%lattice, op%table%span)
+    if (count(mirrors) < 2) return
+    padded = fft_padded(op%table%span)
+    slow = 0
+    do a = 1, 3
+      if (.not. mirrors(a)) slow = a
+    end do
+    if (slow == 0) slow = op%axes(3)   ! all three: the largest (most planes to split)
+    op%axes = [pack(op%axes, op%axes /= slow), slow]   ! fft_axes' order: smaller first
+    op%mirrored = .true.
+  end subroutine choose_axes
+
+  !> Slots by the unknowns' mirror signs along the slow, the fast and the middle axis (even
+  !> first, stable): the frequency product's even block is the slow-even one, and the fields of
+  !> equal fast and middle signs are consecutive runs of the mirror transform.
+  subroutine order_by_mirrors(op)
+    type(fft_operator_t), intent(inout) :: op
+    integer :: key(op%block_size), a, axis, new_slot(op%block_size)
+    logical :: inversion(op%block_size)
+    integer, parameter :: weight(3) = [2, 1, 4]   ! fast, middle, slow
+    key = 0
+    do axis = 1, 3
+      associate (d => op%table%transforms(:, :, 1 + 2**(op%axes(axis) - 1)))
+        do a = 1, op%block_size
+          if (d(a, a) < 0) key(a) = key(a) + weight(axis)
+        end do
+      end associate
+    end do
+    do a = 1, op%block_size
+      new_slot(a) = 1 + count(key < key(a)) + count(key(1:a - 1) == key(a))
+    end do
+    inversion = op%inversion_even
+    do a = 1, op%block_size
+      op%inversion_even(new_slot(a)) = inversion(op%slot(a))
+    end do
+    op%slot = new_slot
+    op%n_even = count(key < 4)
+  end subroutine order_by_mirrors
+
+  !> Smallest even n >= minimum whose prime factors are 2, 3, 5, 7.
+  pure integer function even_fft_size(minimum)
+    integer, intent(in) :: minimum
+    even_fft_size = fft_size(minimum)
+    do while (mod(even_fft_size, 2) /= 0)
+      even_fft_size = fft_size(even_fft_size + 1)
+    end do
+  end function even_fft_size
+
+  !> Collective. The mirror transform's box (fast and middle even), layout, first buffer and
+  !> plans (mirror_transform.f90).
+  subroutine plan_mirror_transform(comm, op, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    integer :: data(3), failed
+    real(dp) :: entries
+    logical :: made
+    PetscErrorCode :: ierr
+
+    if (.not. fftw_mpi_started) then
+      call fftw_mpi_init()
+      fftw_mpi_started = .true.
+    end if
+    data = op%table%span(op%axes) + 1
+    op%box(1) = even_fft_size(max(2 * data(1) - 1, 2))
+    op%box(2) = even_fft_size(max(2 * data(2) - 1, 2))
+    op%box(3) = fft_size(max(2 * data(3) - 1, 2))
+    entries = real(op%block_size, dp) * (op%box(1) / 2 + 1) * (op%box(2) / 2 + 1) * op%box(3)
+    if (entries > real(huge(1_C_INT), dp)) then
+      call raise(err, 'the FFT box ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // str(op%box(3)) // &
+                 ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
+      return
+    end if
+    call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err)
+    allocate (op%buffers(1), op%buffer_slabs(0))
+    made = .not. err%failed
+    if (made) call make_mirror_buffer(op%reduced, op%buffers(1), made)
+    failed = merge(0, 1, made)
+    call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed /= 0) then
+      if (.not. err%failed) call raise(err, 'the FFT buffer could not be allocated on some rank')
+      return
+    end if
+    call make_mirror_plans(comm, op%reduced, op%buffers(1), merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans), made)
+    if (.not. made) call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
+                               str(op%box(3)) // ' mirror transforms')
+  end subroutine plan_mirror_transform
+
+  !> class_factor(e, c): in class c the product's packed entry e = (s, t) is the kernel's
+  !> times (-1)^(sum_a o_t(a) (1 - o_s(a)) + m + [m >= 2] + m_slow), o(a) = 1 for a field odd
+  !> along mirrored axis a in the class, m the entry's odd axes, m_slow 1 if odd along the slow
+  !> one: the transform's -i of each sine transform, moved from the fields into the kernel
+  !> (theory.md T4, "Mirror classes"), and the kernel's own sign convention (kernel_spectrum.f90).
+  subroutine find_class_factors(op, octant)
+    type(fft_operator_t), intent(inout) :: op
+    type(kernel_octant_t), intent(in) :: octant
+    integer :: e, c, a, s, t, exponent, m, class_sign(2), odd_s, odd_t
+    allocate (op%class_factor(size(octant%row), n_classes))
+    e = 0
+    do t = 1, op%block_size
+      do s = 1, t
+        e = e + 1
+        m = count(octant%parity(e, :) < 0)
+        do c = 1, n_classes
+          class_sign = class_signs(c)
+          exponent = m + merge(1, 0, m >= 2) + merge(1, 0, octant%parity(e, 3) < 0)
+          do a = 1, 2
+            odd_s = merge(1, 0, class_sign(a) * op%field_sign(s, a) < 0)
+            odd_t = merge(1, 0, class_sign(a) * op%field_sign(t, a) < 0)
+            exponent = exponent + odd_t * (1 - odd_s)
+          end do
+          op%class_factor(e, c) = merge(1.0_dp, -1.0_dp, mod(exponent, 2) == 0)
+        end do
+      end do
+    end do
+  end subroutine find_class_factors
+
+  !> Collective. The PETSc vector over the first buffer's data planes and the beads' classes.
+  subroutine make_class_maps(comm, op, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    type(error_t), intent(inout) :: err
+    PetscErrorCode :: ierr
+    PetscInt :: slab_length
+    slab_length = int(op%reduced%planes * op%reduced%half(2) * op%reduced%row)
+    deallocate (op%buffer_slabs)
+    allocate (op%buffer_slabs(1))
+    PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, op%buffers(1)%slab, op%buffer_slabs(1), ierr))
+    call make_mirror_classes(comm, op%table%lattice, op%axes, op%first_bead, op%n_local, op%slot, op%field_sign, &
+                             op%reduced, op%buffer_slabs(1), op%classes, err)
+  end subroutine make_class_maps
+
+  !> Collective. Buffers for batched class products of up to `wanted` items, within the same
+  !> allowance as the pruned transform's copies (make_copies).
+  subroutine make_class_buffers(op, wanted)
+    type(fft_operator_t), target, intent(inout) :: op
+    integer, intent(in) :: wanted
+    real(dp) :: buffer_bytes, allowance
+    integer :: n_buffers, c, failed
+    logical :: made
+    type(mirror_buffer_t), allocatable :: buffers(:)
+    Vec, allocatable :: slabs(:)
+    PetscInt :: slab_length
+    PetscErrorCode :: ierr
+    buffer_bytes = 8.0_dp * max(size(op%buffers(1)%all, kind=i8), 1_i8)
+    allowance = 2.0_dp**26
+    if (allocated(op%kernel)) allowance = max(allowance, 2.0_dp * size(op%kernel, kind=i8))
+    if (associated(op%shared_kernel)) allowance = max(allowance, 2.0_dp * size(op%shared_kernel, kind=i8))
+    n_buffers = min(wanted, max_copies)
+    n_buffers = 1 + int(min(real(n_buffers - 1, dp), allowance / buffer_bytes))
+    call MPI_Allreduce(MPI_IN_PLACE, n_buffers, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)
+    allocate (buffers(n_buffers), slabs(n_buffers))
+    buffers(1) = op%buffers(1)
+    slabs(1) = op%buffer_slabs(1)
+    slab_length = int(op%reduced%planes * op%reduced%half(2) * op%reduced%row)
+    do c = 2, n_buffers
+      call make_mirror_buffer(op%reduced, buffers(c), made)
+      failed = merge(0, 1, made)
+      call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, op%comm, ierr)
+      if (failed /= 0) then   ! no memory for it on some rank: fewer buffers, the same products
+        call destroy_mirror_buffer(buffers(c))
+        n_buffers = c - 1
+        exit
+      end if
+      PetscCallA(VecCreateMPIWithArray(op%comm, 1, slab_length, PETSC_DECIDE, buffers(c)%slab, slabs(c), ierr))
+    end do
+    op%buffers = buffers(1:n_buffers)
+    op%buffer_slabs = slabs(1:n_buffers)
+  end subroutine make_class_buffers
+
+  !> Collective. y(j) = A x(j) class by class: each x(j) split into the classes it has (one for
+  !> the solves' vectors, mirror_classes.F90), each class folded onto the fundamental sites of a
+  !> buffer and transformed, all the batch's spectra multiplied in one pass over the kernel,
+  !> transformed back and unfolded into y(j); then the self term S x.
+  subroutine mirrored_product(op, x, y)
+    type(fft_operator_t), target, intent(inout) :: op
+    Vec, intent(in) :: x(:), y(:)   ! PETSc handles: the vectors behind y are written
+    integer :: item_vector(n_classes * size(x)), item_class(n_classes * size(x)), classes(n_classes)
+    integer :: n_items, n, j, k, first, batch
+    logical :: started(size(x))
+    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
+    PetscErrorCode :: ierr
+
+    n_items = 0
+    do j = 1, size(x)
+      call classes_of(op%classes, x(j), classes, n)
+      item_vector(n_items + 1:n_items + n) = j
+      item_class(n_items + 1:n_items + n) = classes(1:n)
+      n_items = n_items + n
+    end do
+    started = .false.
+    batch = size(op%buffers)
+    do first = 1, n_items, batch
+      n = min(batch, n_items - first + 1)
+      do k = 1, n
+        call fold_class(op%classes, x(item_vector(first + k - 1)), item_class(first + k - 1), op%buffer_slabs(k))
+        ! The FFTs write the array behind the PETSc vector: bracketed by Get/Restore.
+        PetscCallA(VecGetArrayF90(op%buffer_slabs(k), slab, ierr))
+        call mirror_forward(op%reduced, op%buffers(k), item_class(first + k - 1))
+      end do
+      if (associated(op%shared_kernel)) then
+        call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), op%kernel_map)
+      else
+        call multiply_classes(op, op%kernel, item_class(first:first + n - 1))
+      end if
+      do k = 1, n
+        call mirror_backward(op%reduced, op%buffers(k), item_class(first + k - 1))
+        PetscCallA(VecRestoreArrayF90(op%buffer_slabs(k), slab, ierr))
+        j = item_vector(first + k - 1)
+        call unfold_class(op%classes, op%buffer_slabs(k), item_class(first + k - 1), y(j), started(j))
+        started(j) = .true.
+      end do
+    end do
+    do j = 1, size(x)
+      ! + S x for every bead: one product (nb x nb) x (nb x n_local).
+      PetscCallA(VecGetArrayReadF90(x(j), local_x, ierr))
+      PetscCallA(VecGetArrayF90(y(j), local_y, ierr))
+      if (op%n_local > 0) call dgemm('N', 'N', op%block_size, int(op%n_local), op%block_size, 1.0_dp, op%self_block, &
+                                     op%block_size, local_x, op%block_size, 1.0_dp, local_y, op%block_size)
+      PetscCallA(VecRestoreArrayF90(y(j), local_y, ierr))
+      PetscCallA(VecRestoreArrayReadF90(x(j), local_x, ierr))
+    end do
+  end subroutine mirrored_product
+
+  !> The spectra of the first size(classes) buffers, buffer k of class classes(k), times the
+  !> class's kernel frequency by frequency: one pass over the kernel for all.
+  subroutine multiply_classes(op, kernel, classes, map)
+    type(fft_operator_t), intent(inout) :: op
+    real(dp), intent(in), contiguous :: kernel(:, :)
+    integer, intent(in) :: classes(:)
+    integer, intent(in), optional :: map(:)
+    real(dp) :: column(size(op%class_factor, 1)), signed(size(op%class_factor, 1), n_classes)
+    logical :: present_class(n_classes)
+    integer(i8) :: g
+    integer :: k, c
+    present_class = .false.
+    present_class(classes) = .true.
+    do g = 1, op%reduced%n_frequencies
+      if (present(map)) then
+        column = kernel(map, g)
+      else
+        column = kernel(:, g)
+      end if
+      do c = 1, n_classes
+        if (present_class(c)) signed(:, c) = column * op%class_factor(:, c)
+      end do
+      do k = 1, size(classes)
+        call multiply_class_frequency(op%n_even, signed(:, classes(k)), op%buffers(k)%spectrum(:, g))
+      end do
+    end do
+  end subroutine multiply_classes
+
+  !> x <- K x at one frequency, K = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper
+  !> triangle (the real numbers of frequency_product.inc, without the mirrored image).
+  pure subroutine multiply_class_frequency(n_even, packed, spectrum)
+    integer, intent(in) :: n_even
+    real(dp), intent(in) :: packed(:)
+    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
+    real(dp) :: z(size(spectrum), 2), w(size(spectrum), 2), k_st, c1, c2
+    integer :: s, t, top, nb
+    nb = size(spectrum)
+    z(1:n_even, 1) = real(spectrum(1:n_even), dp)
+    z(1:n_even, 2) = aimag(spectrum(1:n_even))
+    z(n_even + 1:nb, 1) = -aimag(spectrum(n_even + 1:nb))
+    z(n_even + 1:nb, 2) = real(spectrum(n_even + 1:nb), dp)
+    w = 0.0_dp
+    top = 0
+    do t = 1, nb
+      k_st = packed(top + t)
+      c1 = k_st * z(t, 1)
+      c2 = k_st * z(t, 2)
+      do s = 1, t - 1
+        k_st = packed(top + s)
+        w(s, 1) = w(s, 1) + k_st * z(t, 1)
+        w(s, 2) = w(s, 2) + k_st * z(t, 2)
+        c1 = c1 + k_st * z(s, 1)
+        c2 = c2 + k_st * z(s, 2)
+      end do
+      w(t, 1) = w(t, 1) + c1
+      w(t, 2) = w(t, 2) + c2
+      top = top + t
+    end do
+    spectrum(1:n_even) = cmplx(w(1:n_even, 1), w(1:n_even, 2), kind=C_DOUBLE_COMPLEX)
+    spectrum(n_even + 1:nb) = cmplx(w(n_even + 1:nb, 2), -w(n_even + 1:nb, 1), kind=C_DOUBLE_COMPLEX)
+  end subroutine multiply_class_frequency
 end module beadmob_fft_operator

@@ -21,6 +21,7 @@ module beadmob_multipole_operator
   type :: operator_options_t
     character(len=:), allocatable :: cache_file   ! table cache of the lattice blocks ('' = none)
     logical :: measure_plans = .true.             ! FFTW_MEASURE plans (fft, pfft)
+    logical :: mirror_classes = .true.            ! products by mirror class where they apply (fft)
     logical :: report = .false.                   ! progress lines of the set-up (rank 0)
     integer :: pfft_stencil = 0                   ! interpolation points per axis (pfft)
     real(dp) :: pfft_near_radius = 0.0_dp         ! radius (d) of the exact pairs (pfft)
