@@ -100,6 +100,7 @@ module beadmob_fft_operator
     Vec, allocatable :: buffer_slabs(:)
     type(mirror_classes_t) :: classes
     real(dp), allocatable :: field_sign(:, :), class_factor(:, :)
+    logical, allocatable :: slow_even(:)     ! by slot: even along the slow axis (real block)
     !> Sign of each slot's field under the mirror of the slow FFT axis, D = diag(mirror_sign):
     !> K^ at the mirrored frequency (k_slow -> -k_slow) is D K^ D, so the kernel is kept for
     !> k_slow <= n_slow / 2 only (module header).
@@ -440,6 +441,7 @@ contains
     end do
     if (companion%mirrored) then
       companion%field_sign = parent%field_sign(slot_parent, :)
+      companion%slow_even = parent%slow_even(slot_parent)
       companion%class_factor = parent%class_factor(companion%kernel_map, :)
       call plan_mirror_transform(comm, companion, err)
       ! FFTW's slabs depend on the box and the ranks only, so the frequencies are the parent's.
@@ -659,7 +661,10 @@ contains
       end associate
     end do
     op%mirror_sign = axis_sign(:, 3)
-    if (op%mirrored) op%field_sign = axis_sign(:, 1:2)
+    if (op%mirrored) then
+      op%field_sign = axis_sign(:, 1:2)
+      op%slow_even = axis_sign(:, 3) > 0
+    end if
   end subroutine find_mirror_signs
 
   pure function identity(n) result(matrix)
@@ -1182,14 +1187,14 @@ contains
     op%mirrored = .true.
   end subroutine choose_axes
 
-  !> Slots by the unknowns' mirror signs along the slow, the fast and the middle axis (even
-  !> first, stable): the frequency product's even block is the slow-even one, and the fields of
-  !> equal fast and middle signs are consecutive runs of the mirror transform.
+  !> Slots by the unknowns' mirror signs along the fast, the middle and the slow axis (even
+  !> first, stable): the fields of equal fast signs, and of equal fast and middle signs, are
+  !> consecutive runs of the mirror transform (two and four runs for every class).
   subroutine order_by_mirrors(op)
     type(fft_operator_t), intent(inout) :: op
     integer :: key(op%block_size), a, axis, new_slot(op%block_size)
     logical :: inversion(op%block_size)
-    integer, parameter :: weight(3) = [2, 1, 4]   ! fast, middle, slow
+    integer, parameter :: weight(3) = [4, 2, 1]   ! fast, middle, slow
     key = 0
     do axis = 1, 3
       associate (d => op%table%transforms(:, :, 1 + 2**(op%axes(axis) - 1)))
@@ -1206,7 +1211,6 @@ contains
       op%inversion_even(new_slot(a)) = inversion(op%slot(a))
     end do
     op%slot = new_slot
-    op%n_even = count(key < 4)
   end subroutine order_by_mirrors
 
   !> Smallest even n >= minimum whose prime factors are 2, 3, 5, 7.
@@ -1275,7 +1279,8 @@ contains
         m = count(octant%parity(e, :) < 0)
         do c = 1, n_classes
           class_sign = class_signs(c)
-          exponent = m + merge(1, 0, m >= 2) + merge(1, 0, octant%parity(e, 3) < 0)
+          ! K' of frequency_product.inc: K = i K' at (slow-even s, slow-odd t), -i K' at (odd, even)
+          exponent = m + merge(1, 0, m >= 2) + merge(1, 0, op%slow_even(s) .and. .not. op%slow_even(t))
           do a = 1, 2
             odd_s = merge(1, 0, class_sign(a) * op%field_sign(s, a) < 0)
             odd_t = merge(1, 0, class_sign(a) * op%field_sign(t, a) < 0)
@@ -1417,24 +1422,23 @@ contains
         if (present_class(c)) signed(:, c) = column * op%class_factor(:, c)
       end do
       do k = 1, size(classes)
-        call multiply_class_frequency(op%n_even, signed(:, classes(k)), op%buffers(k)%spectrum(:, g))
+        call multiply_class_frequency(op%slow_even, signed(:, classes(k)), op%buffers(k)%spectrum(:, g))
       end do
     end do
   end subroutine multiply_classes
 
-  !> x <- K x at one frequency, K = [R_ee, i J_eo; -i J_eo^T, R_oo] from its packed upper
-  !> triangle (the real numbers of frequency_product.inc, without the mirrored image).
-  pure subroutine multiply_class_frequency(n_even, packed, spectrum)
-    integer, intent(in) :: n_even
+  !> x <- K x at one frequency, K = [R_ee, i J_eo; -i J_eo^T, R_oo] (even: the slots where
+  !> `even`, in any order) from its packed upper triangle (the real numbers K' of
+  !> frequency_product.inc, without the mirrored image).
+  pure subroutine multiply_class_frequency(even, packed, spectrum)
+    logical, intent(in) :: even(:)
     real(dp), intent(in) :: packed(:)
     complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
     real(dp) :: z(size(spectrum), 2), w(size(spectrum), 2), k_st, c1, c2
     integer :: s, t, top, nb
     nb = size(spectrum)
-    z(1:n_even, 1) = real(spectrum(1:n_even), dp)
-    z(1:n_even, 2) = aimag(spectrum(1:n_even))
-    z(n_even + 1:nb, 1) = -aimag(spectrum(n_even + 1:nb))
-    z(n_even + 1:nb, 2) = real(spectrum(n_even + 1:nb), dp)
+    z(:, 1) = merge(real(spectrum, dp), -aimag(spectrum), even)
+    z(:, 2) = merge(aimag(spectrum), real(spectrum, dp), even)
     w = 0.0_dp
     top = 0
     do t = 1, nb
@@ -1452,7 +1456,6 @@ contains
       w(t, 2) = w(t, 2) + c2
       top = top + t
     end do
-    spectrum(1:n_even) = cmplx(w(1:n_even, 1), w(1:n_even, 2), kind=C_DOUBLE_COMPLEX)
-    spectrum(n_even + 1:nb) = cmplx(w(n_even + 1:nb, 2), -w(n_even + 1:nb, 1), kind=C_DOUBLE_COMPLEX)
+    spectrum = merge(cmplx(w(:, 1), w(:, 2), kind=C_DOUBLE_COMPLEX), cmplx(w(:, 2), -w(:, 1), kind=C_DOUBLE_COMPLEX), even)
   end subroutine multiply_class_frequency
 end module beadmob_fft_operator

@@ -298,8 +298,7 @@ contains
     row = t%row
     do line = t%lines - 1, 0, -1
       do plane = t%data(3) - 1, 0, -1
-        b%transposed((line * t%box(3) + plane) * row + 1:(line * t%box(3) + plane + 1) * row) = &
-          b%transposed((line * t%data(3) + plane) * row + 1:(line * t%data(3) + plane + 1) * row)
+        call move(b%transposed, (line * t%data(3) + plane) * row, (line * t%box(3) + plane) * row, row)
       end do
       b%transposed((line * t%box(3) + t%data(3)) * row + 1:(line + 1) * t%box(3) * row) = 0.0_dp
     end do
@@ -318,8 +317,7 @@ contains
     row = t%row
     do line = 0, t%lines - 1
       do plane = 0, t%data(3) - 1
-        b%transposed((line * t%data(3) + plane) * row + 1:(line * t%data(3) + plane + 1) * row) = &
-          b%transposed((line * t%box(3) + plane) * row + 1:(line * t%box(3) + plane + 1) * row)
+        call move(b%transposed, (line * t%box(3) + plane) * row, (line * t%data(3) + plane) * row, row)
       end do
     end do
     call fftw_mpi_execute_r2r(t%transpose_backward, c_loc(b%transposed), b%memory)
@@ -410,21 +408,34 @@ contains
         base = plane * t%half(2) * t%row + o * line_stride + t%run_first(run)
         if (by > 0) then
           do k = n - 1, 0, -1
-            to = base + (k + 1) * slot_stride
-            from = base + k * slot_stride
-            b%slab(to:to + t%run_count(run) - 1) = b%slab(from:from + t%run_count(run) - 1)
+            call move(b%slab, base + k * slot_stride - 1, base + (k + 1) * slot_stride - 1, int(t%run_count(run), i8))
           end do
           b%slab(base:base + t%run_count(run) - 1) = 0.0_dp
         else
           do k = 0, n - 1
-            to = base + k * slot_stride
-            from = base + (k + 1) * slot_stride
-            b%slab(to:to + t%run_count(run) - 1) = b%slab(from:from + t%run_count(run) - 1)
+            call move(b%slab, base + (k + 1) * slot_stride - 1, base + k * slot_stride - 1, int(t%run_count(run), i8))
           end do
         end if
       end do
     end do
   end subroutine shift_slots
+
+  !> flat(to + 1 : to + n) <- flat(from + 1 : from + n); overlapping moves are safe either way
+  !> (an array assignment would make a temporary copy for the possible overlap).
+  pure subroutine move(flat, from, to, n)
+    real(C_DOUBLE), intent(inout) :: flat(:)
+    integer(i8), intent(in) :: from, to, n
+    integer(i8) :: k
+    if (to > from) then
+      do k = n, 1, -1
+        flat(to + k) = flat(from + k)
+      end do
+    else if (to < from) then
+      do k = 1, n
+        flat(to + k) = flat(from + k)
+      end do
+    end if
+  end subroutine move
 
   subroutine destroy_mirror_transform(t)
     type(mirror_transform_t), intent(inout) :: t
