@@ -32,12 +32,14 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(15) = [ &
+  type(option_t), parameter :: options(16) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
     option_t('fft_planner', 'auto|measure|estimate', word, 'FFTW plans: measured (faster products), estimated ' // &
              '(reproducible) or auto (default: measured when remembered with a table cache)'), &
+    option_t('fft_whole_box', '', switch, 'FFT products on the whole padded box, not by mirror class of a ' // &
+             'symmetric bead set (a comparison)'), &
     option_t('solve_apart', '', switch, 'solve the motions one KSPSolve after another (KSP monitors apply) ' // &
              'instead of together'), &
     option_t('near_field_radius', 'R', real_number, 'pairs within R (d) in the preconditioning matrix (default 0)'), &
@@ -222,6 +224,8 @@ contains
         job%pfft_stencil = whole
       case ('fft_planner')
         job%fft_planner = value
+      case ('fft_whole_box')
+        job%fft_mirror_classes = .false.
       case ('solve_apart')
         job%solve_apart = .true.
       case ('near_field_radius')

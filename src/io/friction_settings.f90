@@ -65,6 +65,9 @@ module beadmob_friction_settings
     !> run) or 'auto': measure where the plans are remembered (a table cache), else estimate
     !> (bench/side_by_side/fft_planner.md)
     character(len=16) :: fft_planner = 'auto'
+    !> The FFT operator's products by mirror class where the bead set has two lattice mirror
+    !> planes (fft_operator.F90); false (-fft_whole_box): always on the whole padded box
+    logical :: fft_mirror_classes = .true.
     !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
     !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
     logical :: solve_apart = .false.

@@ -182,6 +182,7 @@ contains
     if (err%failed) return
     this%matrix = matrix
     this%on_lattice = .true.
+    this%by_mirror_class = this%mirrored
     this%computed_blocks = this%table%computed_blocks
     this%cached_blocks = this%table%cached_blocks
   end subroutine create_fft

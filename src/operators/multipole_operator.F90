@@ -38,6 +38,7 @@ module beadmob_multipole_operator
     integer(i8) :: computed_blocks = 0            ! pair blocks (or table nodes) by quadrature
     integer(i8) :: cached_blocks = 0              ! pair blocks read from the table cache
     logical :: plans_from_wisdom = .false.        ! FFT plans from the wisdom remembered with the cache
+    logical :: by_mirror_class = .false.          ! products by mirror class (the FFT operator)
     Mat :: matrix                                 ! y = A x by MatMult; valid after create
     !> The matrix is assembled and exact (the dense operator): its Cholesky factorisation is the
     !> solve's preconditioner, instead of the single-bead blocks.

@@ -241,6 +241,7 @@ contains
     call write_attribute(group, 'cached_blocks', int(job_result%cached_blocks), err)
     call write_attribute(group, 'cache_file', trim(job_result%cache_file), err)
     call write_attribute(group, 'fft_plans_from_wisdom', merge(1, 0, job_result%plans_from_wisdom), err)
+    call write_attribute(group, 'fft_by_mirror_class', merge(1, 0, job_result%by_mirror_class), err)
     names = trim(phase_names(1))
     do k = 2, size(phase_names)
       names = names // ' ' // trim(phase_names(k))

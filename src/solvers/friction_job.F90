@@ -68,6 +68,7 @@ module beadmob_friction_job
     integer(i8) :: cached_blocks = 0               ! lattice blocks read from the table cache
     character(len=1024) :: cache_file = ''         ! the table cache used ('' = none)
     logical :: plans_from_wisdom = .false.         ! FFT plans remembered with the cache (fft_operator.F90)
+    logical :: by_mirror_class = .false.           ! FFT products by mirror class (fft_operator.F90)
     integer :: lubrication_pairs = 0
     integer :: lubrication_reference_order = 0
     type(lubrication_table_t) :: lubrication_table
@@ -206,6 +207,7 @@ contains
     options%measure_plans = settings%fft_planner == 'measure' .or. &
                             (settings%fft_planner == 'auto' .and. len_trim(settings%cache_file) > 0)
     options%report = report
+    options%mirror_classes = settings%fft_mirror_classes
     options%pfft_stencil = settings%pfft_stencil
     options%pfft_near_radius = settings%pfft_near_radius
     if (with_companion) options%companion_unknowns = companion_unknowns(basis)
@@ -223,6 +225,7 @@ contains
       job_result%computed_blocks = op%computed_blocks
       job_result%cached_blocks = op%cached_blocks
       job_result%plans_from_wisdom = op%plans_from_wisdom
+      job_result%by_mirror_class = op%by_mirror_class
       if (job_result%operator_name == 'pfft') then
         job_result%pfft_stencil = settings%pfft_stencil
         job_result%pfft_near_radius = settings%pfft_near_radius
