@@ -54,9 +54,9 @@ module beadmob_fft_operator
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
                                       mirror_forward, mirror_backward, make_mirror_buffer, destroy_mirror_buffer, &
                                       destroy_mirror_transform, n_classes, class_signs
-  use beadmob_mirror_classes, only: mirror_classes_t, lattice_mirrors, make_mirror_classes, destroy_mirror_classes, &
+  use beadmob_mirror_classes, only: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, &
                                     classes_of, fold_class, unfold_class
-  use beadmob_unit_lattice, only: lattice_tolerance
+  use beadmob_unit_lattice, only: lattice_tolerance, lattice_mirrors
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, lattice_blocks_seconds, &
@@ -95,6 +95,7 @@ module beadmob_fft_operator
     !> the sign of packed entry e in class c relative to the kernel (theory.md T4).
     logical :: mirrored = .false.
     logical :: use_mirrors = .true.         ! set before create: mirror classes where they apply
+    integer :: dense_pass_limit = -1        ! set before create (tests): size_mirror_transform's, -1 its default
     type(mirror_transform_t) :: reduced
     type(mirror_buffer_t), allocatable :: buffers(:)   ! the first, then the batch's copies
     Vec, allocatable :: buffer_slabs(:)
@@ -133,6 +134,9 @@ module beadmob_fft_operator
 
   !> Vectors one batched product transforms at most (the motions of a job).
   integer, parameter :: max_copies = 6
+  !> Time of a cosine or sine pass of FFTW (mirror_transform.f90) against a complex transform of
+  !> the same length and lines, as fft_seconds counts it (measured on the paper cone, 2 ranks).
+  real(dp), parameter :: r2r_factor = 2.0_dp
 
   !> One spectrum of a batched product.
   type :: spectrum_ref_t
@@ -214,6 +218,10 @@ contains
     real(dp) :: nb, packed, sites, freq_planes, data_planes, frequencies, half, log_sites, pruned, round_entry
     real(dp) :: copies, allowance, low_buffer
     integer :: data(3)
+    if (count(size%mirrors) >= 2) then
+      call mirrored_fft_cost(size, cost)
+      return
+    end if
     nb = size%nb
     packed = nb * (nb + 1) / 2
     cost%canonical_blocks = canonical_blocks_of(size%spans)
@@ -259,6 +267,65 @@ contains
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * pruned &
                                 + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
   end subroutine fft_cost
+
+  !> fft_cost of an operator whose products run by mirror class (choose_axes, mirror_transform.f90):
+  !> the kernel on the octant of frequencies with its middle-axis lines split over the ranks, one
+  !> buffer per batched vector (the data planes or the spectrum, and the transposed planes), and
+  !> per product the cosine and sine passes of the fast axis on the fundamental data rows and of the
+  !> middle axis on the data planes, the slow axis whole, and the kernel product on the octant.
+  pure subroutine mirrored_fft_cost(size, cost)
+    type(job_size_t), intent(in) :: size
+    type(operator_cost_t), intent(out) :: cost
+    real(dp) :: nb, packed, lines, planes, frequencies, sites, buffer, transforms, round_entry, copies, allowance, &
+                low_buffer, log_sites
+    integer :: axes(3), data(3), half(2), fundamental(2), slow, a
+    nb = size%nb
+    packed = nb * (nb + 1) / 2
+    cost%canonical_blocks = canonical_blocks_of(size%spans)
+    cost%transient = 8 * nb**2 * cost%canonical_blocks + transform_bytes(size)
+    axes = fft_axes(size%spans)
+    slow = axes(3)
+    do a = 1, 3
+      if (.not. size%mirrors(a)) slow = a
+    end do
+    axes = [pack(axes, axes /= slow), slow]
+    data = size%spans(axes) + 1
+    cost%fft_box = [even_fft_size(max(2 * data(1) - 1, 2)), even_fft_size(max(2 * data(2) - 1, 2)), &
+                    fft_size(max(2 * data(3) - 1, 2))]
+    half = cost%fft_box(1:2) / 2 + 1
+    fundamental = (data(1:2) + 1) / 2
+    lines = real(ceiling(real(half(2), dp) / size%n_ranks), dp)
+    planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
+    frequencies = lines * (cost%fft_box(3) / 2 + 1) * half(1)
+    sites = product(real(cost%fft_box, dp))
+    log_sites = log(sites) / log(2.0_dp)
+    cost%kernel = 8 * packed * frequencies
+    buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * cost%fft_box(3) * half(1))
+    cost%fft_buffer = buffer
+    if (size%n_ranks > 1) cost%transposes = transpose_fraction * buffer
+    round_entry = 8 * (product(real(cost%fft_box / 2 + 1, dp)) &
+                       + (cost%fft_box(2) + size%n_ranks * lines) * (cost%fft_box(3) / 2 + 1) * half(1))
+    if (round_entry > buffer) cost%transient = cost%transient + round_entry
+    copies = real(min(max_copies, max(size%solves, 1)) - 1, dp)
+    allowance = max(cost%kernel / 4, 2.0_dp**26)
+    low_buffer = buffer * size%nb_low / nb
+    cost%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
+    if (low_buffer > 0) cost%companion = cost%companion + low_buffer * min(copies, real(floor(allowance / low_buffer), dp))
+    cost%fft_buffer = buffer * (1 + min(copies, real(floor(allowance / buffer), dp)))
+    cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
+                         + packed * (fill_seconds * product(real(size%spans + 1, dp)) &
+                                     + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
+                         / size%n_ranks
+    ! Per field, in the pruned transform's units (a site's log2): the passes of the fast and the
+    ! middle axis count r2r_factor of a complex transform of their length, the slow pass a real one.
+    transforms = (r2r_factor * (real(fundamental(2), dp) * data(3) * half(1) * log(real(cost%fft_box(1), dp)) &
+                                + real(data(3), dp) * half(2) * half(1) * log(real(cost%fft_box(2), dp))) &
+                  + real(half(2), dp) * half(1) * cost%fft_box(3) * log(real(cost%fft_box(3), dp))) / log(2.0_dp)
+    cost%seconds_product = (2 * fft_seconds * nb * transforms + multiply_seconds * packed * &
+                            half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks
+    cost%seconds_low_product = (2 * fft_seconds * size%nb_low * transforms + multiply_seconds * size%nb_low * &
+                                (size%nb_low + 1) / 2 * half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks
+  end subroutine mirrored_fft_cost
 
   !> The padded box and the data box (span + 1 sites) in the FFT's axis order, as plan_transforms
   !> lays them (the axes sorted by padded size, the first of equal ones first).
@@ -432,6 +499,7 @@ contains
     companion%inversion_even = parent%inversion_even(slot_parent)
     companion%axes = parent%axes
     companion%mirrored = parent%mirrored
+    companion%dense_pass_limit = parent%dense_pass_limit
     allocate (companion%kernel_map(size(unknowns) * (size(unknowns) + 1) / 2))
     do t = 1, size(unknowns)
       do s = 1, t
@@ -718,10 +786,7 @@ contains
       return
     end if
     planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
-    wisdom_file = ''
-    if (op%measure_plans .and. allocated(op%table%cache_file)) then
-      if (len_trim(op%table%cache_file) > 0) wisdom_file = trim(op%table%cache_file) // '.fftw_wisdom'
-    end if
+    wisdom_file = wisdom_path(op)
     op%plans_from_wisdom = .false.
     if (len(wisdom_file) > 0) then
       ! Plans from remembered wisdom only (FFTW_WISDOM_ONLY: no plan if the box is new to it).
@@ -737,6 +802,16 @@ contains
       call remember_wisdom(comm, wisdom_file)
     end if
   end subroutine plan_transforms
+
+  !> The FFTW wisdom file next to the table cache ('' without a cache or with estimated plans).
+  function wisdom_path(op) result(path)
+    type(fft_operator_t), intent(in) :: op
+    character(len=:), allocatable :: path
+    path = ''
+    if (op%measure_plans .and. allocated(op%table%cache_file)) then
+      if (len_trim(op%table%cache_file) > 0) path = trim(op%table%cache_file) // '.fftw_wisdom'
+    end if
+  end function wisdom_path
 
   !> Collective. Rank 0 reads the wisdom file (missing: nothing; unreadable: a warning) and every
   !> rank gets it. Wisdom only chooses among FFTW's exact algorithms: a file from another machine
@@ -938,7 +1013,7 @@ contains
     Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
     integer :: first, batch
     if (this%mirrored) then
-      if (size(this%buffers) == 1) call make_class_buffers(this, 4 * size(x))
+      if (size(this%buffers) == 1) call make_class_buffers(this, size(x))
       call mirrored_product(this, x, y)
       return
     end if
@@ -1230,8 +1305,10 @@ contains
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
     integer :: data(3), failed
+    integer(C_INT) :: planner
     real(dp) :: entries
     logical :: made
+    character(len=:), allocatable :: wisdom_file
     PetscErrorCode :: ierr
 
     if (.not. fftw_mpi_started) then
@@ -1248,7 +1325,11 @@ contains
                  ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
       return
     end if
-    call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err)
+    if (op%dense_pass_limit >= 0) then
+      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, op%dense_pass_limit)
+    else
+      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err)
+    end if
     allocate (op%buffers(1), op%buffer_slabs(0))
     made = .not. err%failed
     if (made) call make_mirror_buffer(op%reduced, op%buffers(1), made)
@@ -1258,9 +1339,23 @@ contains
       if (.not. err%failed) call raise(err, 'the FFT buffer could not be allocated on some rank')
       return
     end if
-    call make_mirror_plans(comm, op%reduced, op%buffers(1), merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans), made)
-    if (.not. made) call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
-                               str(op%box(3)) // ' mirror transforms')
+    ! As plan_transforms: measured plans from the wisdom remembered with the cache where it has them.
+    planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
+    wisdom_file = wisdom_path(op)
+    op%plans_from_wisdom = .false.
+    if (len(wisdom_file) > 0) then
+      call recall_wisdom(comm, wisdom_file)
+      call make_mirror_plans(comm, op%reduced, op%buffers(1), ior(planner, FFTW_WISDOM_ONLY), op%plans_from_wisdom)
+      if (.not. op%plans_from_wisdom) call destroy_mirror_transform(op%reduced)   ! the plans only
+    end if
+    made = op%plans_from_wisdom
+    if (.not. made) call make_mirror_plans(comm, op%reduced, op%buffers(1), planner, made)
+    if (.not. made) then
+      call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
+                 str(op%box(3)) // ' mirror transforms')
+    else if (len(wisdom_file) > 0 .and. .not. op%plans_from_wisdom) then
+      call remember_wisdom(comm, wisdom_file)
+    end if
   end subroutine plan_mirror_transform
 
   !> class_factor(e, c): in class c the product's packed entry e = (s, t) is the kernel's
@@ -1401,29 +1496,40 @@ contains
   end subroutine mirrored_product
 
   !> The spectra of the first size(classes) buffers, buffer k of class classes(k), times the
-  !> class's kernel frequency by frequency: one pass over the kernel for all.
+  !> class's kernel frequency by frequency: one pass over the kernel for all. A spectrum row
+  !> holds the fast-axis frequencies of one (line, k_slow) with the fields at field_base +
+  !> k field_step (mirror_transform.f90).
   subroutine multiply_classes(op, kernel, classes, map)
     type(fft_operator_t), intent(inout) :: op
     real(dp), intent(in), contiguous :: kernel(:, :)
     integer, intent(in) :: classes(:)
     integer, intent(in), optional :: map(:)
     real(dp) :: column(size(op%class_factor, 1)), signed(size(op%class_factor, 1), n_classes)
+    complex(C_DOUBLE_COMPLEX) :: values(op%block_size)
+    integer :: at(op%block_size)
     logical :: present_class(n_classes)
-    integer(i8) :: g
-    integer :: k, c
+    integer(i8) :: g, row
+    integer :: k, c, fast
     present_class = .false.
     present_class(classes) = .true.
-    do g = 1, op%reduced%n_frequencies
-      if (present(map)) then
-        column = kernel(map, g)
-      else
-        column = kernel(:, g)
-      end if
-      do c = 1, n_classes
-        if (present_class(c)) signed(:, c) = column * op%class_factor(:, c)
-      end do
-      do k = 1, size(classes)
-        call multiply_class_frequency(op%slow_even, signed(:, classes(k)), op%buffers(k)%spectrum(:, g))
+    g = 0
+    do row = 1, op%reduced%lines * (op%box(3) / 2 + 1)
+      do fast = 0, op%reduced%half(1) - 1
+        g = g + 1
+        if (present(map)) then
+          column = kernel(map, g)
+        else
+          column = kernel(:, g)
+        end if
+        do c = 1, n_classes
+          if (present_class(c)) signed(:, c) = column * op%class_factor(:, c)
+        end do
+        at = 1 + op%reduced%field_base + fast * op%reduced%field_step
+        do k = 1, size(classes)
+          values = op%buffers(k)%spectrum(at, row)
+          call multiply_class_frequency(op%slow_even, signed(:, classes(k)), values)
+          op%buffers(k)%spectrum(at, row) = values
+        end do
       end do
     end do
   end subroutine multiply_classes

@@ -21,7 +21,7 @@ module beadmob_mirror_classes
   use beadmob_mirror_transform, only: mirror_transform_t, n_classes, class_signs
   implicit none
   private
-  public :: mirror_classes_t, lattice_mirrors, make_mirror_classes, destroy_mirror_classes, classes_of, fold_class, &
+  public :: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, classes_of, fold_class, &
             unfold_class
 
   type :: mirror_classes_t
@@ -42,31 +42,6 @@ module beadmob_mirror_classes
   real(dp), parameter :: class_tolerance = 1.0e-12_dp
 
 contains
-
-  !> The lattice axes along which the bead set (integer coordinates 0 .. span) is its own mirror
-  !> image.
-  function lattice_mirrors(lattice, span) result(mirrored)
-    integer, intent(in) :: lattice(:, :), span(3)
-    logical :: mirrored(3)
-    logical, allocatable :: occupied(:, :, :)
-    integer :: a, i, l(3)
-    allocate (occupied(0:span(1), 0:span(2), 0:span(3)))
-    occupied = .false.
-    do i = 1, size(lattice, 2)
-      occupied(lattice(1, i), lattice(2, i), lattice(3, i)) = .true.
-    end do
-    do a = 1, 3
-      mirrored(a) = .true.
-      do i = 1, size(lattice, 2)
-        l = lattice(:, i)
-        l(a) = span(a) - l(a)
-        if (.not. occupied(l(1), l(2), l(3))) then
-          mirrored(a) = .false.
-          exit
-        end if
-      end do
-    end do
-  end function lattice_mirrors
 
   !> Collective. The classes of the beads first_bead .. first_bead + n_local - 1 of `lattice`
   !> (FFT axis a is lattice axis axes(a)), nb unknowns per bead in slots `slot`, whose mirror
@@ -133,7 +108,8 @@ contains
         call raise(err, 'internal error: bead ' // str(bead) // ' has no data plane or no mirror image')
         return
       end if
-      site = all_info(1, owner) + nb * (j(1) + int(t%half(1), i8) * (j(2) + int(t%half(2), i8) * (l(3) - all_info(2, owner))))
+      ! The row of (plane, middle slot), then the field's place in it (mirror_transform.f90).
+      site = all_info(1, owner) + t%row * (j(2) + int(t%half(2), i8) * (l(3) - all_info(2, owner)))
       do axis = 1, 2
         image = l
         image(axis) = t%data(axis) - 1 - l(axis)
@@ -141,7 +117,7 @@ contains
           [(int((bead_at(image(1), image(2), image(3)) - 1) * nb + a - 1), a = 1, nb)]
       end do
       do a = 1, nb
-        sites((i - 1) * nb + a) = int(site + slot(a) - 1)
+        sites((i - 1) * nb + a) = int(site + t%field_base(slot(a)) + j(1) * t%field_step(slot(a)))
         rows((i - 1) * nb + a) = first_row + int((i - 1) * nb + a - 1)
       end do
     end do

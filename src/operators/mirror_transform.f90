@@ -12,6 +12,13 @@
 !> quarter of the sites, transposes and frequencies of the pruned transform (pruned_transform.f90),
 !> which stays for bodies without the two mirrors.
 !>
+!> Layout of one (slow plane, middle slot) row of half(1) * fields numbers: the fields' runs (equal
+!> signs along the fast and the middle axis, consecutive) one after the other, each as [fast slot]
+!> [field of the run]: a pass of one run then transforms contiguous vectors of fields (the fast
+!> axis) or one contiguous block (the middle axis) with one kind. field_base and field_step place
+!> field s at fast slot k at field_base(s) + k field_step(s) of its row, in the data planes and,
+!> after the slow axis' transform (which treats each number of a row alike), in the spectrum.
+!>
 !> Site and frequency slots 0 .. n/2 per mirrored axis (n even): site j is the bead plane j
 !> from the centre (whole sample: planes c, c + 1, ...; between sites: c + 1/2, c + 3/2, ...).
 !> Frequency k sits in slot k for every field; a slot its transform does not produce (k = 0 and
@@ -24,6 +31,7 @@ module beadmob_mirror_transform
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_fftw
+  use beadmob_lapack, only: dgemm
   use mpi, only: MPI_Allreduce, MPI_IN_PLACE, MPI_INTEGER, MPI_SUM
   implicit none
   private
@@ -47,8 +55,15 @@ module beadmob_mirror_transform
     integer(i8) :: slab_doubles = 0, spectrum_doubles = 0, transposed_doubles = 0
     !> Runs of consecutive fields with the same mirror signs D_f, D_m (run_sign(:, run))
     integer, allocatable :: run_first(:), run_count(:), run_sign(:, :)
+    integer, allocatable :: field_base(:), field_step(:)   ! by field (row layout above)
     !> pass(run, axis, direction, class): r2r plans (null: nothing to transform)
     type(C_PTR), allocatable :: pass(:, :, :, :)
+    !> Axes of at most dense_limit slots (size_mirror_transform) pass by matrix products instead (DGEMM; FFTW's r2r
+    !> transforms of a few tens of points on strided data cost several times their flops):
+    !> matrix(:, :, parity, direction, axis), the same transform as a matrix on the slots, zero
+    !> where a slot is not produced or not read.
+    logical :: dense(2) = .false.
+    real(dp), allocatable :: matrix(:, :, :, :, :)
     type(C_PTR) :: slow_forward = C_NULL_PTR, slow_backward = C_NULL_PTR
     type(C_PTR) :: transpose_forward = C_NULL_PTR, transpose_backward = C_NULL_PTR
   end type mirror_transform_t
@@ -60,10 +75,14 @@ module beadmob_mirror_transform
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()
     real(C_DOUBLE), pointer, contiguous :: slab(:) => null()        ! [planes][half_m][half_f][fields]
     real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][n_slow][half_f][fields]
-    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()   ! (fields, frequencies)
+    !> (numbers of a row, rows [lines][k_slow <= n_slow/2]); field s at fast frequency k of a row
+    !> is number 1 + field_base(s) + k field_step(s)
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
   end type mirror_buffer_t
 
   integer, parameter :: forward = 1, backward = 2
+  !> Default of size_mirror_transform's dense_limit.
+  integer, parameter :: default_dense_limit = 64
 
   interface
     subroutine fftw_execute_r2r(p, in, out) bind(C, name='fftw_execute_r2r')
@@ -107,11 +126,13 @@ contains
 
   !> Collective. The layout of `fields` fields (their mirror signs along the fast and the middle
   !> axis: sign(field, 1:2), fields with equal signs best consecutive) on the padded box `box`
-  !> (fast and middle even, >= 2 data - 1) with `data` bead sites per axis.
-  subroutine size_mirror_transform(comm, sign, box, data, t, err)
+  !> (fast and middle even, >= 2 data - 1) with `data` bead sites per axis. dense_limit (default
+  !> 64): the most slots an axis passes by matrix products (0: FFTW's r2r transforms only).
+  subroutine size_mirror_transform(comm, sign, box, data, t, err, dense_limit)
     integer, intent(in) :: comm, sign(:, :), box(3), data(3)
     type(mirror_transform_t), intent(inout) :: t
     type(error_t), intent(inout) :: err
+    integer, intent(in), optional :: dense_limit
     integer(C_INTPTR_T) :: forward_alloc, backward_alloc, back(4)
     integer :: f, runs
     t%fields = size(sign, 1)
@@ -125,6 +146,9 @@ contains
     t%whole = mod(data(1:2), 2) == 1
     t%fundamental = merge((data(1:2) + 1) / 2, data(1:2) / 2, t%whole)
     t%row = t%half(1) * t%fields
+    t%dense = t%half <= default_dense_limit
+    if (present(dense_limit)) t%dense = t%half <= dense_limit
+    if (any(t%dense)) call make_pass_matrices(t)
     forward_alloc = fftw_mpi_local_size_many_transposed(2, [int(data(3), C_INTPTR_T), int(t%half(2), C_INTPTR_T)], &
                                                         int(t%row, C_INTPTR_T), FFTW_MPI_DEFAULT_BLOCK, &
                                                         FFTW_MPI_DEFAULT_BLOCK, int(comm, C_INT32_T), t%planes, &
@@ -159,6 +183,13 @@ contains
     t%run_first = t%run_first(1:runs)
     t%run_count = t%run_count(1:runs)
     t%run_sign = t%run_sign(:, 1:runs)
+    allocate (t%field_base(t%fields), t%field_step(t%fields))
+    do runs = 1, size(t%run_first)
+      do f = t%run_first(runs), t%run_first(runs) + t%run_count(runs) - 1
+        t%field_base(f) = run_start(t, runs) + f - t%run_first(runs)
+        t%field_step(f) = t%run_count(runs)
+      end do
+    end do
   end subroutine size_mirror_transform
 
   !> A buffer of the transform's layout (memory: false if it could not be allocated).
@@ -175,7 +206,7 @@ contains
     call c_f_pointer(b%memory, b%all, [doubles])
     b%slab => b%all(1:max(t%slab_doubles, 1_i8))
     b%transposed => b%all(region_a + 1:region_a + t%transposed_doubles)
-    call c_f_pointer(b%memory, b%spectrum, [int(t%fields, i8), max(t%n_frequencies, 1_i8)])
+    call c_f_pointer(b%memory, b%spectrum, [int(t%row, i8), max(t%lines * (t%box(3) / 2 + 1), 1_i8)])
   end subroutine make_mirror_buffer
 
   subroutine destroy_mirror_buffer(b)
@@ -197,7 +228,8 @@ contains
     integer(C_INT), intent(in) :: flags
     logical, intent(out) :: made
     type(fftw_iodim) :: line(1), many(3), slow_many(2)
-    integer :: run, axis, direction, class, missing, ierr, n, offset, kind(1), slot_stride, s(2), parity
+    integer :: run, axis, direction, class, missing, ierr, n, offset, kind(1), slot_stride, s(2), parity, segments, &
+               segment_stride, length
     integer(C_INT) :: kinds(1)
     type(C_PTR) :: at
 
@@ -208,22 +240,19 @@ contains
       do class = 1, n_classes
         s = class_signs(class)
         do axis = 1, 2
-          slot_stride = merge(t%fields, t%row, axis == 1)
           do run = 1, size(t%run_first)
             parity = s(axis) * t%run_sign(axis, run)
+            call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
             do direction = forward, backward
               call pass_kind(t, axis, parity, direction, kind(1), n, offset)
-              if (n < 1) cycle
+              if (n < 1 .or. t%dense(axis)) cycle
               kinds(1) = int(kind(1), C_INT)
+              ! Fast: the run's fields on each data row; middle: the run's block of each plane.
               line(1) = fftw_iodim(n, slot_stride, slot_stride)
-              many(1) = fftw_iodim(t%run_count(run), 1, 1)
-              if (axis == 1) then   ! fast: the data rows of each plane
-                many(2) = fftw_iodim(t%fundamental(2), t%row, t%row)
-              else                  ! middle: every fast-axis frequency of each plane
-                many(2) = fftw_iodim(t%half(1), t%fields, t%fields)
-              end if
+              many(1) = fftw_iodim(length, 1, 1)
+              many(2) = fftw_iodim(segments, segment_stride, segment_stride)
               many(3) = fftw_iodim(int(t%planes), t%half(2) * t%row, t%half(2) * t%row)
-              at = c_loc(b%slab(1 + offset * slot_stride + t%run_first(run) - 1))
+              at = c_loc(b%slab(1 + run_start(t, run) + offset * slot_stride))
               t%pass(run, axis, direction, class) = fftw_plan_guru_r2r(1, line, 3, many, at, at, kinds, flags)
               if (.not. c_associated(t%pass(run, axis, direction, class))) missing = missing + 1
             end do
@@ -331,17 +360,21 @@ contains
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: class, axis, direction
-    integer :: run, s(2), parity, kind, n, offset, slot_stride
+    integer :: run, s(2), parity, kind, n, offset, slot_stride, segments, segment_stride, length
     if (t%planes == 0) return
     s = class_signs(class)
-    slot_stride = merge(t%fields, t%row, axis == 1)
     do run = 1, size(t%run_first)
       parity = s(axis) * t%run_sign(axis, run)
+      call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
+      if (t%dense(axis)) then
+        call dense_pass(t, b, run, axis, t%matrix(:t%half(axis), :t%half(axis), merge(1, 2, parity > 0), direction, axis))
+        cycle
+      end if
       call pass_kind(t, axis, parity, direction, kind, n, offset)
       if (.not. t%whole(axis) .and. parity < 0 .and. direction == backward) call shift_slots(t, b, run, axis, -1)
       if (n >= 1) call fftw_execute_r2r(t%pass(run, axis, direction, class), &
-                                        c_loc(b%slab(1 + offset * slot_stride + t%run_first(run) - 1)), &
-                                        c_loc(b%slab(1 + offset * slot_stride + t%run_first(run) - 1)))
+                                        c_loc(b%slab(1 + run_start(t, run) + offset * slot_stride)), &
+                                        c_loc(b%slab(1 + run_start(t, run) + offset * slot_stride)))
       if (direction == forward) then
         if (t%whole(axis)) then
           if (parity < 0) then
@@ -359,34 +392,115 @@ contains
     end do
   end subroutine run_passes
 
-  !> Lines of one pass: (plane, other-axis slot) pairs; along the fast axis the data rows only.
-  pure subroutine pass_lines(t, axis, other, line_stride)
-    type(mirror_transform_t), intent(in) :: t
-    integer, intent(in) :: axis
-    integer, intent(out) :: other
-    integer(i8), intent(out) :: line_stride
-    if (axis == 1) then
-      other = t%fundamental(2)
-      line_stride = t%row
-    else
-      other = t%half(1)
-      line_stride = t%fields
-    end if
-  end subroutine pass_lines
+  !> The slot matrices of the dense axes (FFTW's definitions of its r2r kinds, written on the
+  !> slots 0 .. n/2 of module header): DCT-I and DST-I (their own inverses) about a site; between
+  !> sites DCT-II / DST-II forward (the sine's frequency k + 1 in slot k + 1) and DCT-III / DST-III
+  !> back.
+  subroutine make_pass_matrices(t)
+    type(mirror_transform_t), intent(inout) :: t
+    integer :: axis, h, n, j, k
+    real(dp), parameter :: pi = acos(-1.0_dp)
+    allocate (t%matrix(maxval(t%half), maxval(t%half), 2, 2, 2))
+    t%matrix = 0.0_dp
+    do axis = 1, 2
+      if (.not. t%dense(axis)) cycle
+      h = t%half(axis)
+      n = t%box(axis) / 2
+      associate (m => t%matrix(:, :, :, :, axis))
+        do k = 0, h - 1
+          do j = 0, h - 1
+            if (t%whole(axis)) then
+              ! Even: Y_k = X_0 + (-1)^k X_n + 2 sum_{0<j<n} X_j cos(pi j k / n); odd: slots 1 .. n - 1.
+              m(k + 1, j + 1, 1, :) = merge(1.0_dp, 2.0_dp, j == 0 .or. j == n) * cos(pi * j * k / n)
+              if (j > 0 .and. j < n .and. k > 0 .and. k < n) m(k + 1, j + 1, 2, :) = 2 * sin(pi * j * k / n)
+            else if (j < n) then
+              ! Forward: sites j < n to frequencies (even: slots k < n; odd: slots 1 .. n).
+              if (k < n) m(k + 1, j + 1, 1, forward) = 2 * cos(pi * (j + 0.5_dp) * k / n)
+              if (k > 0) m(k + 1, j + 1, 2, forward) = 2 * sin(pi * (j + 0.5_dp) * k / n)
+            end if
+            if (.not. t%whole(axis) .and. k < n) then
+              ! Back: frequency slot j to site k < n (even: slots < n, odd: slots 1 .. n).
+              if (j < n) m(k + 1, j + 1, 1, backward) = merge(1.0_dp, 2.0_dp, j == 0) * cos(pi * (k + 0.5_dp) * j / n)
+              if (j > 0) m(k + 1, j + 1, 2, backward) = merge(1.0_dp, 2.0_dp, j == n) * sin(pi * (k + 0.5_dp) * j / n)
+            end if
+          end do
+        end do
+      end associate
+    end do
+  end subroutine make_pass_matrices
 
-  !> Slot `slot` of the run's fields along `axis` set to zero on every line of the pass.
+  !> One run's pass along a dense axis: each vector of slots times the matrix (one DGEMM per
+  !> plane for the middle axis, per data row for the fast axis).
+  subroutine dense_pass(t, b, run, axis, matrix)
+    type(mirror_transform_t), intent(in) :: t
+    type(mirror_buffer_t), intent(inout) :: b
+    integer, intent(in) :: run, axis
+    real(dp), intent(in) :: matrix(:, :)
+    integer :: slot_stride, segments, segment_stride, length, o, h
+    integer(i8) :: plane, base
+    real(dp) :: product(t%half(1) * t%fields * t%half(2))
+    call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
+    h = t%half(axis)
+    do plane = 0, t%planes - 1
+      do o = 0, segments - 1
+        base = plane * t%half(2) * t%row + int(o, i8) * segment_stride + run_start(t, run)
+        ! The slots of the vectors are columns slot_stride apart: product = X M^T.
+        call dgemm('N', 'T', length, h, h, 1.0_dp, b%slab(base + 1:), slot_stride, matrix, h, 0.0_dp, product, length)
+        call place(product, b%slab(base + 1:), length, h, slot_stride)
+      end do
+    end do
+  end subroutine dense_pass
+
+  !> columns(:, k) of a (length x h) matrix into the slots slot_stride apart.
+  pure subroutine place(columns, slots, length, h, slot_stride)
+    integer, intent(in) :: length, h, slot_stride
+    real(dp), intent(in) :: columns(length, h)
+    real(dp), intent(inout) :: slots(*)
+    integer :: k
+    do k = 1, h
+      slots((k - 1) * slot_stride + 1:(k - 1) * slot_stride + length) = columns(:, k)
+    end do
+  end subroutine place
+
+  !> Doubles of a row before run `run`'s block.
+  pure integer function run_start(t, run)
+    type(mirror_transform_t), intent(in) :: t
+    integer, intent(in) :: run
+    run_start = t%half(1) * (t%run_first(run) - 1)
+  end function run_start
+
+  !> Where a pass of one run reads along `axis` in each plane: slots slot_stride apart, on
+  !> `segments` contiguous vectors of `length` doubles segment_stride apart (fast: the run's fields
+  !> on each data row; middle: the run's whole block).
+  pure subroutine pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
+    type(mirror_transform_t), intent(in) :: t
+    integer, intent(in) :: run, axis
+    integer, intent(out) :: slot_stride, segments, segment_stride, length
+    if (axis == 1) then
+      slot_stride = t%run_count(run)
+      segments = t%fundamental(2)
+      segment_stride = t%row
+      length = t%run_count(run)
+    else
+      slot_stride = t%row
+      segments = 1
+      segment_stride = 0
+      length = t%half(1) * t%run_count(run)
+    end if
+  end subroutine pass_geometry
+
+  !> Slot `slot` of the run along `axis` set to zero on every vector of the pass.
   subroutine zero_slot(t, b, run, axis, slot)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: run, axis, slot
-    integer :: other, o
-    integer(i8) :: line_stride, slot_stride, plane, base
-    call pass_lines(t, axis, other, line_stride)
-    slot_stride = merge(int(t%fields, i8), int(t%row, i8), axis == 1)
+    integer :: slot_stride, segments, segment_stride, length, o
+    integer(i8) :: plane, base
+    call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
     do plane = 0, t%planes - 1
-      do o = 0, other - 1
-        base = plane * t%half(2) * t%row + o * line_stride + slot * slot_stride + t%run_first(run)
-        b%slab(base:base + t%run_count(run) - 1) = 0.0_dp
+      do o = 0, segments - 1
+        base = plane * t%half(2) * t%row + int(o, i8) * segment_stride + run_start(t, run) + int(slot, i8) * slot_stride
+        b%slab(base + 1:base + length) = 0.0_dp
       end do
     end do
   end subroutine zero_slot
@@ -398,22 +512,21 @@ contains
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: run, axis, by
-    integer :: other, o, k, n
-    integer(i8) :: line_stride, slot_stride, plane, base, to, from
-    call pass_lines(t, axis, other, line_stride)
-    slot_stride = merge(int(t%fields, i8), int(t%row, i8), axis == 1)
+    integer :: slot_stride, segments, segment_stride, length, o, k, n
+    integer(i8) :: plane, base
+    call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
     n = t%box(axis) / 2
     do plane = 0, t%planes - 1
-      do o = 0, other - 1
-        base = plane * t%half(2) * t%row + o * line_stride + t%run_first(run)
+      do o = 0, segments - 1
+        base = plane * t%half(2) * t%row + int(o, i8) * segment_stride + run_start(t, run)
         if (by > 0) then
           do k = n - 1, 0, -1
-            call move(b%slab, base + k * slot_stride - 1, base + (k + 1) * slot_stride - 1, int(t%run_count(run), i8))
+            call move(b%slab, base + int(k, i8) * slot_stride, base + int(k + 1, i8) * slot_stride, int(length, i8))
           end do
-          b%slab(base:base + t%run_count(run) - 1) = 0.0_dp
+          b%slab(base + 1:base + length) = 0.0_dp
         else
           do k = 0, n - 1
-            call move(b%slab, base + (k + 1) * slot_stride - 1, base + k * slot_stride - 1, int(t%run_count(run), i8))
+            call move(b%slab, base + int(k + 1, i8) * slot_stride, base + int(k, i8) * slot_stride, int(length, i8))
           end do
         end if
       end do
@@ -437,6 +550,7 @@ contains
     end if
   end subroutine move
 
+  !> Frees the plans (the layout stays: make_mirror_plans may plan again).
   subroutine destroy_mirror_transform(t)
     type(mirror_transform_t), intent(inout) :: t
     integer :: k

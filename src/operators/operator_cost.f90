@@ -32,6 +32,7 @@ module beadmob_operator_cost
     logical :: on_lattice = .false.
     real(dp) :: near_radius = 0             ! the pfft operator's radius of exact pairs (d)
     integer :: solves = 6                   ! motions solved together (a batched product's vectors)
+    logical :: mirrors(3) = .false.         ! lattice axes along which the solve beads are symmetric
   end type job_size_t
 
   !> Per rank, largest rank: bytes held while the solves run (blocks: pair blocks or canonical

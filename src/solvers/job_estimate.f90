@@ -55,7 +55,7 @@ contains
   !> Memory per rank: base + geometry N + what the operator holds + the largest of its set-up's
   !> transient need, the vectors and the companion (its operator, vectors and start).
   function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                        n_ranks, n_solves, shell, oversubscription, companion, near_radius) result(e)
+                        n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
     logical, intent(in) :: shell, companion
@@ -63,6 +63,7 @@ contains
     logical, intent(in) :: on_lattice
     character(len=*), intent(in) :: operator_name
     real(dp), intent(in), optional :: near_radius
+    logical, intent(in), optional :: mirrors(3)   ! lattice axes along which the solve beads are symmetric
     type(job_estimate_t) :: e
     class(multipole_operator_t), allocatable :: op
     type(job_size_t) :: size
@@ -86,6 +87,7 @@ contains
     size%solves = n_solves
     size%on_lattice = on_lattice
     if (present(near_radius)) size%near_radius = near_radius
+    if (present(mirrors)) size%mirrors = mirrors
     call new_operator(operator_name, op)
     call op%cost(size, cost)
 

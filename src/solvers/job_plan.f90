@@ -8,7 +8,7 @@ module beadmob_job_plan
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_parallel, only: run_context_t, agree_on_error
-  use beadmob_unit_lattice, only: on_unit_lattice
+  use beadmob_unit_lattice, only: on_unit_lattice, lattice_mirrors
   use beadmob_shell_model, only: shell_mask
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_multipole_basis, only: basis_size
@@ -72,7 +72,8 @@ contains
     type(error_t), intent(inout) :: err
     logical, allocatable :: keep(:)
     integer :: i, spans(3)
-    logical :: shell
+    integer, allocatable :: lattice(:, :)
+    logical :: shell, mirrors(3)
 
     if (settings%bead_forces .and. .not. all(settings%motions)) then
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
@@ -126,10 +127,16 @@ contains
         spans(i) = pfft_span(plan%solve_centres(i, :), settings%pfft_stencil)
       end if
     end do
+    ! The FFT operator's products by mirror class (fft_operator.F90, choose_axes).
+    mirrors = .false.
+    if (plan%on_lattice .and. settings%fft_mirror_classes) then
+      lattice = nint(plan%solve_centres - spread(minval(plan%solve_centres, dim=2), 2, size(plan%solve_centres, 2)))
+      mirrors = lattice_mirrors(lattice, maxval(lattice, dim=2))
+    end if
     plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
-                                 settings%pfft_near_radius)
+                                 settings%pfft_near_radius, mirrors)
   end subroutine make_job_plan
 
   !> The pfft grid's span along one axis: the beads' extent and a stencil's width.

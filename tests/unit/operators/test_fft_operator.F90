@@ -9,6 +9,16 @@
 !> equals the linear one (n >= 2 span + 1 per axis). Also: off-lattice beads are refused with a
 !> message, the FFT operator is symmetric (<u, A v> = <v, A u>), as CG needs, and seven products
 !> at once (apply_many, batched) equal the single products to rounding.
+!> Mirror classes (theory.md T4): the symmetric sets (cone, box, plate, line, bead) run their
+!> products by class; a general x is split into its four classes, and the test also checks the
+!> whole-box products on the cone (use_mirrors off). For vectors of one class, made here from x
+!> by the mirrors of the lattice (x_c = average over the bead set's mirror group of
+!> chi_c(g) D_g x(g r), D_g from the direct operator's lattice symmetries), the operator takes the
+!> one-class path (classes_of finds one class) and its product equals the direct one to 1e-12;
+!> several classes batched at once equal their single products. The sets cover a centre on a
+!> site and between two sites (3 and 2, 4 beads across) and a single plane (plate: one bead
+!> across, where every odd field is zero), with the small axes' passes as matrix products (the
+!> default) and as FFTW's r2r transforms.
 program test_fft_operator
 #include "petsc/finclude/petscmat.h"
   use petscmat
@@ -21,6 +31,7 @@ program test_fft_operator
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
+  use beadmob_mirror_classes, only: classes_of
   implicit none
   type(test_suite_t) :: suite
   type(run_context_t) :: ctx
@@ -57,6 +68,15 @@ program test_fft_operator
   ! Bead order unrelated to the slabs: each rank's beads scatter to every slab.
   call compare(random_set(:, size(random_set, 2):1:-1), 2, 0, 'random subset, reversed order')
   call compare(plate, 2, 0, 'flat 5 x 4 plate')
+  call compare(cone, 2, 0, 'small cone (whole box)', mirrors=.false.)
+  call compare_classes(cone, 2, 'small cone', [.true., .true., .false.])
+  call compare_classes(box, 2, '3 x 2 x 4 box', [.true., .true., .true.])
+  call compare_classes(box, 1, '3 x 2 x 4 box', [.true., .true., .true.])
+  call compare_classes(plate, 2, 'flat 5 x 4 plate', [.true., .true., .true.])
+  ! FFTW's r2r passes instead of the matrix products of small axes.
+  call compare_classes(cone, 2, 'small cone (r2r passes)', [.true., .true., .false.], dense_limit=0)
+  call compare_classes(box, 2, '3 x 2 x 4 box (r2r passes)', [.true., .true., .true.], dense_limit=0)
+  call compare_classes(plate, 2, 'flat 5 x 4 plate (r2r passes)', [.true., .true., .true.], dense_limit=0)
   call compare(line, 2, 0, 'line of 6 beads')
   call compare(one, 2, 0, 'one bead')
 
@@ -68,10 +88,11 @@ program test_fft_operator
 contains
 
   !> FFT product == direct product for a random x, and <u, A_fft v> = <v, A_fft u>.
-  subroutine compare(centres, order, potential_order, name)
+  subroutine compare(centres, order, potential_order, name, mirrors)
     real(dp), intent(in) :: centres(:, :)
     integer, intent(in) :: order, potential_order
     character(len=*), intent(in) :: name
+    logical, intent(in), optional :: mirrors
     type(multipole_basis_t) :: basis
     type(bead_operator_t), target :: direct
     type(fft_operator_t), target :: fast
@@ -89,6 +110,7 @@ contains
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
     call create_bead_operator(ctx%comm, basis, centres, first, count, direct, direct_matrix, err)
     call check(suite, .not. err%failed, label // ': direct operator created')
+    if (present(mirrors)) fast%use_mirrors = mirrors
     call create_fft_operator(ctx%comm, basis, centres, first, count, fast, fft_matrix, err)
     call check(suite, .not. err%failed, label // ': FFT operator created')
     if (err%failed) then
@@ -97,6 +119,7 @@ contains
       return
     end if
     call check(suite, all(fast%self_block == direct%self_block), label // ': same self block')
+    if (present(mirrors)) call check(suite, fast%mirrored .eqv. mirrors, label // ': mirror classes as asked')
 
     PetscCallA(MatCreateVecs(direct_matrix, x, y_direct, ierr))
     PetscCallA(VecDuplicate(x, u, ierr))
@@ -148,6 +171,123 @@ contains
     call destroy_fft_operator(fast, fft_matrix)
     call destroy_bead_operator(direct, direct_matrix)
   end subroutine compare
+
+  !> Products of vectors of one mirror class (and several classes batched) against the direct
+  !> operator; `mirrors`: the lattice axes along which the set is its own mirror image.
+  subroutine compare_classes(centres, order, name, mirrors, dense_limit)
+    real(dp), intent(in) :: centres(:, :)
+    integer, intent(in) :: order
+    character(len=*), intent(in) :: name
+    logical, intent(in) :: mirrors(3)
+    integer, intent(in), optional :: dense_limit
+    type(multipole_basis_t) :: basis
+    type(bead_operator_t), target :: direct
+    type(fft_operator_t), target :: fast
+    type(error_t) :: err
+    Mat :: direct_matrix, fft_matrix
+    Vec :: x, whole, pure(4), y_direct, y_fft, batched(4)
+    VecScatter :: to_all
+    PetscScalar, pointer :: all_x(:), local(:)
+    integer(i8) :: first, n_mine
+    integer :: nb, n_beads, c, g, a, i, b, image, l(3), span(3), signs(3), classes(4), n, group, n_pure
+    integer, allocatable :: lattice(:, :)
+    real(dp) :: difference, reference, worst
+    real(dp), allocatable :: factor(:)
+    character(len=:), allocatable :: label
+    logical :: one_class
+
+    basis = make_multipole_basis(order, max(order - 2, 0))
+    nb = basis%size
+    allocate (factor(nb))
+    n_beads = size(centres, 2)
+    label = name // ' by class, L = ' // str(order)
+    call block_range(ctx, int(n_beads, i8), first, n_mine)
+    call create_bead_operator(ctx%comm, basis, centres, first, n_mine, direct, direct_matrix, err)
+    if (present(dense_limit)) fast%dense_pass_limit = dense_limit
+    call create_fft_operator(ctx%comm, basis, centres, first, n_mine, fast, fft_matrix, err)
+    call check(suite, .not. err%failed .and. fast%mirrored, label // ': products by mirror class')
+    if (err%failed) return
+    allocate (lattice(3, n_beads))
+    lattice = nint(centres - spread(minval(centres, dim=2), 2, n_beads))
+    span = maxval(lattice, dim=2)
+    PetscCallA(MatCreateVecs(direct_matrix, x, y_direct, ierr))
+    PetscCallA(VecDuplicate(x, y_fft, ierr))
+    call fill_random(x, 3)
+    PetscCallA(VecScatterCreateToAll(x, to_all, whole, ierr))
+    PetscCallA(VecScatterBegin(to_all, x, whole, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecScatterEnd(to_all, x, whole, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    one_class = .true.
+    worst = 0.0_dp
+    n_pure = 0
+    do c = 1, 4
+      ! Class signs along the mirrored lattice axes (the others +1: a class of the larger group).
+      signs = [merge(1, -1, mod(c - 1, 2) == 0), merge(1, -1, c <= 2), 1]
+      if (.not. mirrors(3)) signs(3) = 1
+      n_pure = n_pure + 1
+      PetscCallA(VecDuplicate(x, pure(n_pure), ierr))
+      PetscCallA(VecGetArrayReadF90(whole, all_x, ierr))
+      PetscCallA(VecGetArrayF90(pure(n_pure), local, ierr))
+      local = 0.0_dp
+      do i = 1, int(n_mine)
+        b = int(first) + i - 1
+        ! The mirror group: every subset of the mirrored axes.
+        do group = 0, 7
+          if (any([(btest(group, a - 1) .and. .not. mirrors(a), a = 1, 3)])) cycle
+          l = lattice(:, b)
+          factor(1:nb) = 1.0_dp
+          do a = 1, 3
+            if (.not. btest(group, a - 1)) cycle
+            l(a) = span(a) - l(a)
+            factor(1:nb) = factor(1:nb) * signs(a) * [(direct%table%transforms(g, g, 1 + 2**(a - 1)), g = 1, nb)]
+          end do
+          image = 0
+          do g = 1, n_beads
+            if (all(lattice(:, g) == l)) image = g
+          end do
+          local((i - 1) * nb + 1:i * nb) = local((i - 1) * nb + 1:i * nb) + factor(1:nb) * &
+                                                                            all_x((image - 1) * nb + 1:image * nb)
+        end do
+      end do
+      local = local / 2**count(mirrors)
+      PetscCallA(VecRestoreArrayF90(pure(n_pure), local, ierr))
+      PetscCallA(VecRestoreArrayReadF90(whole, all_x, ierr))
+      call classes_of(fast%classes, pure(n_pure), classes, n)
+      one_class = one_class .and. n == 1
+      PetscCallA(MatMult(direct_matrix, pure(n_pure), y_direct, ierr))
+      PetscCallA(MatMult(fft_matrix, pure(n_pure), y_fft, ierr))
+      PetscCallA(VecNorm(y_direct, NORM_INFINITY, reference, ierr))
+      PetscCallA(VecAXPY(y_fft, -1.0_dp, y_direct, ierr))
+      PetscCallA(VecNorm(y_fft, NORM_INFINITY, difference, ierr))
+      worst = max(worst, difference / reference)
+    end do
+    call check(suite, one_class, label // ': a vector of one class is found to be in one class')
+    call check(suite, worst <= 1.0e-12_dp, label // ': FFT product = direct product for each class, relative ' // &
+               'max-norm difference ' // str(worst))
+    if (suite%rank == 0) write (*, '(a)') label // ': relative difference ' // str(worst)
+    ! All four classes at once, each its single product.
+    do c = 1, 4
+      PetscCallA(VecDuplicate(x, batched(c), ierr))
+    end do
+    call fast%apply_many(pure, batched)
+    worst = 0.0_dp
+    do c = 1, 4
+      PetscCallA(MatMult(fft_matrix, pure(c), y_fft, ierr))
+      PetscCallA(VecNorm(y_fft, NORM_INFINITY, reference, ierr))
+      PetscCallA(VecAXPY(batched(c), -1.0_dp, y_fft, ierr))
+      PetscCallA(VecNorm(batched(c), NORM_INFINITY, difference, ierr))
+      worst = max(worst, difference / reference)
+      PetscCallA(VecDestroy(batched(c), ierr))
+      PetscCallA(VecDestroy(pure(c), ierr))
+    end do
+    call check(suite, worst <= 1.0e-13_dp, label // ': four classes batched = single products, relative ' // str(worst))
+    PetscCallA(VecScatterDestroy(to_all, ierr))
+    PetscCallA(VecDestroy(whole, ierr))
+    PetscCallA(VecDestroy(x, ierr))
+    PetscCallA(VecDestroy(y_direct, ierr))
+    PetscCallA(VecDestroy(y_fft, ierr))
+    call destroy_fft_operator(fast, fft_matrix)
+    call destroy_bead_operator(direct, direct_matrix)
+  end subroutine compare_classes
 
   subroutine check_off_lattice_refused()
     type(multipole_basis_t) :: basis
