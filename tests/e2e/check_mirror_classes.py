@@ -6,8 +6,9 @@ The two are the same linear operator computed two ways (cosine and sine transfor
 fundamental beads against the pruned FFT of the whole box), so CG makes the same iterates up to
 rounding. Checked per input:
 - fft_by_mirror_class is 1 by default and 0 with -fft_whole_box;
-- every motion's iteration count within 1 of the other run's (rounding may move a test by one
-  iteration on another CPU), for order L and for the companion;
+- every motion's iteration count at order L within 1 of the other run's (rounding may move a
+  test by one iteration on another CPU); not the companion's, which starts from the order-L
+  solution, and that differs between the runs within the solver's tolerance, not by rounding;
 - the friction of order L and the companion's within what the solver promises for both runs
   (tests/e2e/solver_promise.py)."""
 import subprocess
@@ -36,7 +37,7 @@ def run(beadmob, mpiexec, ranks, workdir, input_path, *options):
     (result,) = list(Path(workdir).glob("*.h5"))
     with h5py.File(result, "r") as f:
         h = f["hydrodynamics"]
-        record = {key: h.attrs[key][()] for key in ("fft_by_mirror_class", "solve_iterations", "companion_iterations")}
+        record = {key: h.attrs[key][()] for key in ("fft_by_mirror_class", "solve_iterations")}
         record.update(friction=h["friction"][()], multipole_friction=h["multipole_friction"][()],
                       companion_friction=h["companion_friction"][()], bound=solver_promise.bound(h),
                       companion_bound=solver_promise.bound(h, "companion_solver_error_bound"))
@@ -56,9 +57,8 @@ def main(beadmob, mpiexec, ranks, workdir, *inputs):
         check(int(by_class["fft_by_mirror_class"]) == 1 and int(whole["fft_by_mirror_class"]) == 0,
               f"{name}: fft_by_mirror_class 1 by default, 0 with -fft_whole_box "
               f"(got {by_class['fft_by_mirror_class']}, {whole['fft_by_mirror_class']})")
-        for level in ("solve", "companion"):
-            a, b = by_class[f"{level}_iterations"], whole[f"{level}_iterations"]
-            check(np.abs(a - b).max() <= 1, f"{name}, {level}: iterations by class {a.tolist()}, whole box {b.tolist()}")
+        a, b = by_class["solve_iterations"], whole["solve_iterations"]
+        check(np.abs(a - b).max() <= 1, f"{name}: iterations by class {a.tolist()}, whole box {b.tolist()}")
         for key, bound_key, reference in (("friction", "bound", "multipole_friction"),
                                           ("companion_friction", "companion_bound", "companion_friction")):
             check(by_class[bound_key] is not None and whole[bound_key] is not None, f"{name}: {key}: solver bounds stated")

@@ -32,6 +32,7 @@ program test_fft_operator
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size
   use beadmob_mirror_classes, only: classes_of
+  use beadmob_multipole_operator, only: multipole_operator_t
   implicit none
   type(test_suite_t) :: suite
   type(run_context_t) :: ctx
@@ -73,6 +74,9 @@ program test_fft_operator
   call compare_classes(box, 2, '3 x 2 x 4 box', [.true., .true., .true.])
   call compare_classes(box, 1, '3 x 2 x 4 box', [.true., .true., .true.])
   call compare_classes(plate, 2, 'flat 5 x 4 plate', [.true., .true., .true.])
+  call compare_companion(cone, 'small cone', .true.)
+  call compare_companion(cone, 'small cone (whole box)', .false.)
+  call compare_companion(box, '3 x 2 x 4 box', .true.)
   ! FFTW's r2r passes instead of the matrix products of small axes.
   call compare_classes(cone, 2, 'small cone (r2r passes)', [.true., .true., .false.], dense_limit=0)
   call compare_classes(box, 2, '3 x 2 x 4 box (r2r passes)', [.true., .true., .true.], dense_limit=0)
@@ -288,6 +292,67 @@ contains
     call destroy_fft_operator(fast, fft_matrix)
     call destroy_bead_operator(direct, direct_matrix)
   end subroutine compare_classes
+
+  !> The companion of order L - 1 (create_companion, sub-blocks of the kernel read in place)
+  !> against the direct operator's companion, at L = 2, by class and on the whole box.
+  subroutine compare_companion(centres, name, mirrors)
+    real(dp), intent(in) :: centres(:, :)
+    character(len=*), intent(in) :: name
+    logical, intent(in) :: mirrors
+    type(multipole_basis_t) :: basis, low
+    type(bead_operator_t), target :: direct
+    type(fft_operator_t), target :: fast
+    class(multipole_operator_t), allocatable, target :: direct_low, fast_low
+    type(error_t) :: err
+    Mat :: direct_matrix, fft_matrix
+    Vec :: x, y_direct, y_fft
+    integer(i8) :: first, n_mine
+    integer, allocatable :: unknowns(:)
+    integer :: a, b
+    real(dp) :: difference, reference
+    character(len=:), allocatable :: label
+
+    label = name // ', companion of order 1'
+    basis = make_multipole_basis(2, 0)
+    low = make_multipole_basis(1, 0)
+    allocate (unknowns(low%size))
+    do a = 1, low%size
+      do b = 1, basis%size
+        if (basis%degree(b) == low%degree(a) .and. basis%family(b) == low%family(a) .and. &
+            basis%harmonic(b) == low%harmonic(a)) unknowns(a) = b
+      end do
+    end do
+    call block_range(ctx, size(centres, 2, kind=i8), first, n_mine)
+    call create_bead_operator(ctx%comm, basis, centres, first, n_mine, direct, direct_matrix, err)
+    fast%use_mirrors = mirrors
+    call create_fft_operator(ctx%comm, basis, centres, first, n_mine, fast, fft_matrix, err, keep_lattice=.true.)
+    call check(suite, .not. err%failed .and. (fast%mirrored .eqv. mirrors), label // ': operators created')
+    if (err%failed) return
+    fast%matrix = fft_matrix
+    direct%matrix = direct_matrix
+    call direct%create_companion(ctx%comm, unknowns, direct_low, err)
+    call fast%create_companion(ctx%comm, unknowns, fast_low, err)
+    call check(suite, .not. err%failed, label // ': companions created')
+    if (err%failed) return
+    PetscCallA(MatCreateVecs(direct_low%matrix, x, y_direct, ierr))
+    PetscCallA(VecDuplicate(x, y_fft, ierr))
+    call fill_random(x, 5)
+    PetscCallA(MatMult(direct_low%matrix, x, y_direct, ierr))
+    PetscCallA(MatMult(fast_low%matrix, x, y_fft, ierr))
+    PetscCallA(VecNorm(y_direct, NORM_INFINITY, reference, ierr))
+    PetscCallA(VecAXPY(y_fft, -1.0_dp, y_direct, ierr))
+    PetscCallA(VecNorm(y_fft, NORM_INFINITY, difference, ierr))
+    call check(suite, difference <= 1.0e-12_dp * reference, label // ': FFT product = direct product, relative ' // &
+               str(difference / reference))
+    if (suite%rank == 0) write (*, '(a)') label // ': relative difference ' // str(difference / reference)
+    PetscCallA(VecDestroy(x, ierr))
+    PetscCallA(VecDestroy(y_direct, ierr))
+    PetscCallA(VecDestroy(y_fft, ierr))
+    call fast_low%destroy()
+    call direct_low%destroy()
+    call destroy_fft_operator(fast, fft_matrix)
+    call destroy_bead_operator(direct, direct_matrix)
+  end subroutine compare_companion
 
   subroutine check_off_lattice_refused()
     type(multipole_basis_t) :: basis
