@@ -91,8 +91,8 @@ contains
     write (*, '(a)') '  unknowns:             ' // str(e%unknowns) // ' (' // str(e%unknowns_per_bead) // ' per bead)'
     if (e%operator_name == 'fft' .or. e%operator_name == 'pfft') then
       write (*, '(a)') '  operator:             ' // trim(e%operator_name) // ', padded box ' // str(e%fft_box(1)) // ' x ' // str(e%fft_box(2)) // &
-        ' x ' // str(e%fft_box(3)) // ' (slabs of ' // str(e%fft_box(3)) // ' planes: at most ' // &
-        str(e%fft_box(2)) // ' ranks hold frequencies, more ranks do not pay)'
+        ' x ' // str(e%fft_box(3)) // trim(merge(' by mirror class', '                ', e%by_mirror_class)) // &
+        ' (at most ' // str(e%frequency_lines) // ' ranks hold frequencies, more ranks do not pay)'
     else
       write (*, '(a)') '  operator:             ' // trim(e%operator_name)
     end if

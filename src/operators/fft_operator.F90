@@ -227,6 +227,7 @@ contains
     cost%canonical_blocks = canonical_blocks_of(size%spans)
     cost%transient = 8 * nb**2 * cost%canonical_blocks + transform_bytes(size)
     call fft_box_and_data(size%spans, cost%fft_box, data)
+    cost%frequency_lines = cost%fft_box(2)
     sites = product(real(cost%fft_box, dp))
     log_sites = log(sites) / log(2.0_dp)
     ! Per field, the flops of the pruned transform in units of a site's log2 (module header of
@@ -293,6 +294,8 @@ contains
     cost%fft_box = [even_fft_size(max(2 * data(1) - 1, 2)), even_fft_size(max(2 * data(2) - 1, 2)), &
                     fft_size(max(2 * data(3) - 1, 2))]
     half = cost%fft_box(1:2) / 2 + 1
+    cost%frequency_lines = half(2)
+    cost%by_mirror_class = .true.
     fundamental = (data(1:2) + 1) / 2
     lines = real(ceiling(real(half(2), dp) / size%n_ranks), dp)
     planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)

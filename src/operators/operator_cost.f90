@@ -43,6 +43,8 @@ module beadmob_operator_cost
     real(dp) :: seconds_setup = 0, seconds_product = 0, seconds_low_product = 0
     integer(i8) :: canonical_blocks = 0     ! canonical blocks computed (lattice models)
     integer :: fft_box(3) = 0               ! padded box, slow axis last (0: no FFT)
+    integer :: frequency_lines = 0          ! middle-axis lines of the spectrum split over the ranks
+    logical :: by_mirror_class = .false.    ! the FFT operator's products by mirror class
   end type operator_cost_t
 
 contains

@@ -36,6 +36,8 @@ module beadmob_job_estimate
     integer :: unknowns_per_bead = 0, n_ranks = 1, n_solves = 6, iterations = 0
     character(len=16) :: operator_name = ''
     integer :: fft_box(3) = 0                 ! padded box (slow axis last); 0 without an FFT
+    integer :: frequency_lines = 0            ! spectrum lines split over the ranks
+    logical :: by_mirror_class = .false.      ! FFT products by mirror class
     integer(i8) :: canonical_blocks = 0       ! blocks by quadrature (lattice models)
     !> Per rank, largest rank (bytes)
     real(dp) :: base = 0, geometry = 0, blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, vectors = 0, peak = 0
@@ -96,6 +98,8 @@ contains
     e%vectors = vectors_per_unknown * 8 * size%local_beads * size%nb
     e%canonical_blocks = cost%canonical_blocks
     e%fft_box = cost%fft_box
+    e%frequency_lines = cost%frequency_lines
+    e%by_mirror_class = cost%by_mirror_class
     e%blocks = cost%blocks + cost%transient
     e%kernel = cost%kernel
     e%fft_buffer = cost%fft_buffer
