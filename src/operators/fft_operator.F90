@@ -146,6 +146,18 @@ module beadmob_fft_operator
   !> fftw_mpi_init once per process (a second call would be harmless but is not promised).
   logical, save :: fftw_mpi_started = .false.
 
+  abstract interface
+    !> Collective: the operator's transform plans with FFTW `flags`; made = all of them on every
+    !> rank (otherwise none kept).
+    subroutine make_plans_interface(comm, op, flags, made)
+      import :: fft_operator_t, C_INT
+      MPI_Comm, intent(in) :: comm
+      type(fft_operator_t), intent(inout) :: op
+      integer(C_INT), intent(in) :: flags
+      logical, intent(out) :: made
+    end subroutine make_plans_interface
+  end interface
+
   interface
     subroutine MatCreateShell(comm, m_local, n_local, m, n, context, matrix, ierr)
       use petscmat
@@ -279,20 +291,14 @@ contains
     type(operator_cost_t), intent(out) :: cost
     real(dp) :: nb, packed, lines, planes, frequencies, sites, buffer, transforms, round_entry, copies, allowance, &
                 low_buffer, log_sites
-    integer :: axes(3), data(3), half(2), fundamental(2), slow, a
+    integer :: axes(3), data(3), half(2), fundamental(2)
     nb = size%nb
     packed = nb * (nb + 1) / 2
     cost%canonical_blocks = canonical_blocks_of(size%spans)
     cost%transient = 8 * nb**2 * cost%canonical_blocks + transform_bytes(size)
-    axes = fft_axes(size%spans)
-    slow = axes(3)
-    do a = 1, 3
-      if (.not. size%mirrors(a)) slow = a
-    end do
-    axes = [pack(axes, axes /= slow), slow]
+    axes = mirror_axes(size%spans, size%mirrors)
     data = size%spans(axes) + 1
-    cost%fft_box = [even_fft_size(max(2 * data(1) - 1, 2)), even_fft_size(max(2 * data(2) - 1, 2)), &
-                    fft_size(max(2 * data(3) - 1, 2))]
+    cost%fft_box = mirror_box(data)
     half = cost%fft_box(1:2) / 2 + 1
     cost%frequency_lines = half(2)
     cost%by_mirror_class = .true.
@@ -763,10 +769,7 @@ contains
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
     integer :: failed
-    integer(C_INT) :: planner
     real(dp) :: entries
-    logical :: made
-    character(len=:), allocatable :: wisdom_file
     PetscErrorCode :: ierr
 
     if (.not. fftw_mpi_started) then
@@ -788,23 +791,55 @@ contains
       if (.not. err%failed) call raise(err, 'the FFT buffer could not be allocated on another rank')
       return
     end if
+    call plan_remembered(comm, op, pruned_plans, err)
+  end subroutine plan_transforms
+
+  !> make_plans_interface for the pruned transform (make_pruned_plans keeps none on failure).
+  subroutine pruned_plans(comm, op, flags, made)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    integer(C_INT), intent(in) :: flags
+    logical, intent(out) :: made
+    call make_pruned_plans(comm, op%transform, flags, made)
+  end subroutine pruned_plans
+
+  !> make_plans_interface for the mirror transform, on its first buffer.
+  subroutine mirror_plans(comm, op, flags, made)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    integer(C_INT), intent(in) :: flags
+    logical, intent(out) :: made
+    call make_mirror_plans(comm, op%reduced, op%buffers(1), flags, made)
+    if (.not. made) call destroy_mirror_transform(op%reduced)   ! the plans only
+  end subroutine mirror_plans
+
+  !> Collective. The operator's plans by `make_plans` with its planner; measured plans from the
+  !> wisdom remembered with the table cache where it has them (FFTW_WISDOM_ONLY: none if the box
+  !> is new to it), else planned and the wisdom remembered.
+  subroutine plan_remembered(comm, op, make_plans, err)
+    MPI_Comm, intent(in) :: comm
+    type(fft_operator_t), intent(inout) :: op
+    procedure(make_plans_interface) :: make_plans
+    type(error_t), intent(inout) :: err
+    integer(C_INT) :: planner
+    logical :: made
+    character(len=:), allocatable :: wisdom_file
     planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
     wisdom_file = wisdom_path(op)
     op%plans_from_wisdom = .false.
     if (len(wisdom_file) > 0) then
-      ! Plans from remembered wisdom only (FFTW_WISDOM_ONLY: no plan if the box is new to it).
       call recall_wisdom(comm, wisdom_file)
-      call make_pruned_plans(comm, op%transform, ior(planner, FFTW_WISDOM_ONLY), op%plans_from_wisdom)
+      call make_plans(comm, op, ior(planner, FFTW_WISDOM_ONLY), op%plans_from_wisdom)
     end if
     made = op%plans_from_wisdom
-    if (.not. made) call make_pruned_plans(comm, op%transform, planner, made)
+    if (.not. made) call make_plans(comm, op, planner, made)
     if (.not. made) then
       call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
                  str(op%box(3)) // ' transforms')
     else if (len(wisdom_file) > 0 .and. .not. op%plans_from_wisdom) then
       call remember_wisdom(comm, wisdom_file)
     end if
-  end subroutine plan_transforms
+  end subroutine plan_remembered
 
   !> The FFTW wisdom file next to the table cache ('' without a cache or with estimated plans).
   function wisdom_path(op) result(path)
@@ -1250,21 +1285,36 @@ contains
   subroutine choose_axes(op)
     type(fft_operator_t), intent(inout) :: op
     logical :: mirrors(3)
-    integer :: padded(3), slow, a
     op%axes = fft_axes(op%table%span)
     op%mirrored = .false.
     if (.not. op%use_mirrors) return
     mirrors = lattice_mirrors(op%table%lattice, op%table%span)
-    if (count(mirrors) < 2) return
-    padded = fft_padded(op%table%span)
-    slow = 0
+    op%mirrored = count(mirrors) >= 2
+    if (op%mirrored) op%axes = mirror_axes(op%table%span, mirrors)
+  end subroutine choose_axes
+
+  !> The FFT axes of products by mirror class (two mirrored lattice axes among `mirrors` fast
+  !> and middle, the other slow; of three, the largest slow: the most planes to split).
+  pure function mirror_axes(spans, mirrors) result(axes)
+    integer, intent(in) :: spans(3)
+    logical, intent(in) :: mirrors(3)
+    integer :: axes(3), slow, a
+    axes = fft_axes(spans)
+    slow = axes(3)
     do a = 1, 3
       if (.not. mirrors(a)) slow = a
     end do
-    if (slow == 0) slow = op%axes(3)   ! all three: the largest (most planes to split)
-    op%axes = [pack(op%axes, op%axes /= slow), slow]   ! fft_axes' order: smaller first
-    op%mirrored = .true.
-  end subroutine choose_axes
+    axes = [pack(axes, axes /= slow), slow]   ! fft_axes' order: smaller first
+  end function mirror_axes
+
+  !> The padded box of products by mirror class for `data` sites per FFT axis: the fast and the
+  !> middle even (mirror_transform.f90), each >= 2 data - 1 (the convolution stays exact).
+  pure function mirror_box(data) result(box)
+    integer, intent(in) :: data(3)
+    integer :: box(3)
+    box = [even_fft_size(max(2 * data(1) - 1, 2)), even_fft_size(max(2 * data(2) - 1, 2)), &
+           fft_size(max(2 * data(3) - 1, 2))]
+  end function mirror_box
 
   !> Slots by the unknowns' mirror signs along the fast, the middle and the slow axis (even
   !> first, stable): the fields of equal fast signs, and of equal fast and middle signs, are
@@ -1308,10 +1358,8 @@ contains
     type(fft_operator_t), intent(inout) :: op
     type(error_t), intent(inout) :: err
     integer :: data(3), failed
-    integer(C_INT) :: planner
     real(dp) :: entries
     logical :: made
-    character(len=:), allocatable :: wisdom_file
     PetscErrorCode :: ierr
 
     if (.not. fftw_mpi_started) then
@@ -1319,9 +1367,7 @@ contains
       fftw_mpi_started = .true.
     end if
     data = op%table%span(op%axes) + 1
-    op%box(1) = even_fft_size(max(2 * data(1) - 1, 2))
-    op%box(2) = even_fft_size(max(2 * data(2) - 1, 2))
-    op%box(3) = fft_size(max(2 * data(3) - 1, 2))
+    op%box = mirror_box(data)
     entries = real(op%block_size, dp) * (op%box(1) / 2 + 1) * (op%box(2) / 2 + 1) * op%box(3)
     if (entries > real(huge(1_C_INT), dp)) then
       call raise(err, 'the FFT box ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // str(op%box(3)) // &
@@ -1342,23 +1388,7 @@ contains
       if (.not. err%failed) call raise(err, 'the FFT buffer could not be allocated on some rank')
       return
     end if
-    ! As plan_transforms: measured plans from the wisdom remembered with the cache where it has them.
-    planner = merge(FFTW_MEASURE, FFTW_ESTIMATE, op%measure_plans)
-    wisdom_file = wisdom_path(op)
-    op%plans_from_wisdom = .false.
-    if (len(wisdom_file) > 0) then
-      call recall_wisdom(comm, wisdom_file)
-      call make_mirror_plans(comm, op%reduced, op%buffers(1), ior(planner, FFTW_WISDOM_ONLY), op%plans_from_wisdom)
-      if (.not. op%plans_from_wisdom) call destroy_mirror_transform(op%reduced)   ! the plans only
-    end if
-    made = op%plans_from_wisdom
-    if (.not. made) call make_mirror_plans(comm, op%reduced, op%buffers(1), planner, made)
-    if (.not. made) then
-      call raise(err, 'FFTW could not plan the ' // str(op%box(1)) // ' x ' // str(op%box(2)) // ' x ' // &
-                 str(op%box(3)) // ' mirror transforms')
-    else if (len(wisdom_file) > 0 .and. .not. op%plans_from_wisdom) then
-      call remember_wisdom(comm, wisdom_file)
-    end if
+    call plan_remembered(comm, op, mirror_plans, err)
   end subroutine plan_mirror_transform
 
   !> class_factor(e, c): in class c the product's packed entry e = (s, t) is the kernel's

@@ -61,7 +61,7 @@ contains
     integer, allocatable :: bead_at(:, :, :)
     integer(i8), allocatable :: all_info(:, :)
     integer(i8) :: info(3), i, bead, site
-    integer :: nb, a, k, l(3), j(2), owner, n_ranks, axis, image(3), side
+    integer :: nb, a, k, l(3), j(2), owner, n_ranks, axis, image(3), side, failed
     IS :: from, to
     Vec :: template
 
@@ -106,7 +106,7 @@ contains
       if (owner < 0 .or. bead_at(t%data(1) - 1 - l(1), l(2), l(3)) == 0 .or. &
           bead_at(l(1), t%data(2) - 1 - l(2), l(3)) == 0) then
         call raise(err, 'internal error: bead ' // str(bead) // ' has no data plane or no mirror image')
-        return
+        exit
       end if
       ! The row of (plane, middle slot), then the field's place in it (mirror_transform.f90).
       site = all_info(1, owner) + t%row * (j(2) + int(t%half(2), i8) * (l(3) - all_info(2, owner)))
@@ -121,6 +121,13 @@ contains
         rows((i - 1) * nb + a) = first_row + int((i - 1) * nb + a - 1)
       end do
     end do
+    ! Agreed before the collective scatters: every rank goes on, or none.
+    failed = merge(1, 0, err%failed)
+    call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    if (failed /= 0) then
+      if (.not. err%failed) call raise(err, 'the mirror classes could not be set up on another rank')
+      return
+    end if
     PetscCallA(VecCreateMPI(comm, int(n_local * nb), PETSC_DETERMINE, template, ierr))
     PetscCallA(ISCreateGeneral(comm, int(n_local * nb), rows, PETSC_COPY_VALUES, from, ierr))
     PetscCallA(ISCreateGeneral(comm, int(n_local * nb), sites, PETSC_COPY_VALUES, to, ierr))

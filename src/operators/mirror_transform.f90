@@ -3,9 +3,10 @@
 !> axis, a field x of class (s_f, s_m) obeys x_i(M_a r) = s_a D_a(i) x_i(r): each field is even
 !> or odd about the bead set's centre along both axes. The DFT of such a line is a cosine
 !> transform (even) or -i times a sine transform (odd) of its half, so the 3-D transform of the
-!> class is: along the fast and the middle axis FFTW's real-to-real transforms (DCT/DST of type
-!> I when the centre is a site, type II/III when it falls between two sites) on the sites and
-!> frequencies 0 .. n/2, then the slow axis as a real-to-complex FFT (the data are real). Its
+!> class is: along the fast and the middle axis cosine and sine transforms (DCT/DST of type I
+!> when the centre is a site, type II/III when it falls between two sites; as matrix products on
+!> axes of up to 64 slots, else FFTW's real-to-real transforms) on the sites and frequencies
+!> 0 .. n/2, then the slow axis as real FFTs (the data are real; two lines as one complex FFT). Its
 !> spectrum, [lines][k_slow <= n_slow/2][k_fast <= n_fast/2][fields] with the middle-axis
 !> frequencies 0 .. n_middle/2 split over the ranks, is the octant of frequencies that
 !> kernel_spectrum.f90 gives; the operator multiplies it there (fft_operator.F90). About a
@@ -89,14 +90,10 @@ module beadmob_mirror_transform
       import :: C_PTR
       type(C_PTR), value :: p, in, out
     end subroutine fftw_execute_r2r
-    subroutine fftw_execute_dft_r2c(p, in, out) bind(C, name='fftw_execute_dft_r2c')
+    subroutine fftw_execute_dft(p, in, out) bind(C, name='fftw_execute_dft')
       import :: C_PTR
       type(C_PTR), value :: p, in, out
-    end subroutine fftw_execute_dft_r2c
-    subroutine fftw_execute_dft_c2r(p, in, out) bind(C, name='fftw_execute_dft_c2r')
-      import :: C_PTR
-      type(C_PTR), value :: p, in, out
-    end subroutine fftw_execute_dft_c2r
+    end subroutine fftw_execute_dft
     subroutine fftw_mpi_execute_r2r(p, in, out) bind(C, name='fftw_mpi_execute_r2r')
       import :: C_PTR
       type(C_PTR), value :: p, in, out
@@ -145,7 +142,9 @@ contains
     t%half = box(1:2) / 2 + 1
     t%whole = mod(data(1:2), 2) == 1
     t%fundamental = merge((data(1:2) + 1) / 2, data(1:2) / 2, t%whole)
-    t%row = t%half(1) * t%fields
+    ! Even: the slow axis transforms the real numbers of a row in pairs (mirror_forward); an odd
+    ! count gets one unused number.
+    t%row = 2 * ((t%half(1) * t%fields + 1) / 2)
     t%dense = t%half <= default_dense_limit
     if (present(dense_limit)) t%dense = t%half <= dense_limit
     if (any(t%dense)) call make_pass_matrices(t)
@@ -163,7 +162,7 @@ contains
     end if
     t%n_frequencies = int(t%lines, i8) * (box(3) / 2 + 1) * t%half(1)
     t%slab_doubles = max(int(t%planes, i8) * t%half(2) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
-    t%spectrum_doubles = 2 * t%n_frequencies * t%fields
+    t%spectrum_doubles = 2 * int(t%lines, i8) * (box(3) / 2 + 1) * t%row
     t%transposed_doubles = max(int(t%lines, i8) * box(3) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
     ! Runs of fields with equal signs.
     allocate (t%run_first(t%fields), t%run_count(t%fields), t%run_sign(2, t%fields))
@@ -261,12 +260,14 @@ contains
       end do
     end if
     if (t%lines > 0) then
-      line(1) = fftw_iodim(t%box(3), t%row, t%row)
-      slow_many(1) = fftw_iodim(t%row, 1, 1)
-      slow_many(2) = fftw_iodim(int(t%lines), t%box(3) * t%row, (t%box(3) / 2 + 1) * t%row)
-      t%slow_forward = fftw_plan_guru_dft_r2c(1, line, 2, slow_many, c_loc(b%transposed), b%memory, flags)
-      slow_many(2) = fftw_iodim(int(t%lines), (t%box(3) / 2 + 1) * t%row, t%box(3) * t%row)
-      t%slow_backward = fftw_plan_guru_dft_c2r(1, line, 2, slow_many, b%memory, c_loc(b%transposed), flags)
+      ! In place on the transposed planes, the row's numbers paired as complex ones.
+      line(1) = fftw_iodim(t%box(3), t%row / 2, t%row / 2)
+      slow_many(1) = fftw_iodim(t%row / 2, 1, 1)
+      slow_many(2) = fftw_iodim(int(t%lines), t%box(3) * t%row / 2, t%box(3) * t%row / 2)
+      t%slow_forward = fftw_plan_guru_dft(1, line, 2, slow_many, c_loc(b%transposed), c_loc(b%transposed), &
+                                          FFTW_FORWARD, flags)
+      t%slow_backward = fftw_plan_guru_dft(1, line, 2, slow_many, c_loc(b%transposed), c_loc(b%transposed), &
+                                           FFTW_BACKWARD, flags)
       if (.not. c_associated(t%slow_forward)) missing = missing + 1
       if (.not. c_associated(t%slow_backward)) missing = missing + 1
     end if
@@ -331,7 +332,13 @@ contains
       end do
       b%transposed((line * t%box(3) + t%data(3)) * row + 1:(line + 1) * t%box(3) * row) = 0.0_dp
     end do
-    if (t%lines > 0) call fftw_execute_dft_r2c(t%slow_forward, c_loc(b%transposed), b%memory)
+    ! The slow axis: two real lines a, b at once as the complex line z = a + i b; their spectra
+    ! follow from Z's, A(k) = (Z(k) + conj Z(n - k)) / 2 and B(k) = (Z(k) - conj Z(n - k)) / 2i,
+    ! k = 0 .. n/2 (a real FFT of each, twice as fast on these strided lines).
+    if (t%lines > 0) then
+      call fftw_execute_dft(t%slow_forward, c_loc(b%transposed), c_loc(b%transposed))
+      call split_pairs(t, b)
+    end if
   end subroutine mirror_forward
 
   !> The spectrum of buffer b (overwritten) -> its data planes (b%slab) of class `class`, right
@@ -342,7 +349,10 @@ contains
     integer, intent(in) :: class
     integer :: axis
     integer(i8) :: row, line, plane
-    if (t%lines > 0) call fftw_execute_dft_c2r(t%slow_backward, b%memory, c_loc(b%transposed))
+    if (t%lines > 0) then
+      call join_pairs(t, b)
+      call fftw_execute_dft(t%slow_backward, c_loc(b%transposed), c_loc(b%transposed))
+    end if
     row = t%row
     do line = 0, t%lines - 1
       do plane = 0, t%data(3) - 1
@@ -354,6 +364,52 @@ contains
       call run_passes(t, b, class, axis, backward)
     end do
   end subroutine mirror_backward
+
+  !> The spectra of the pairs' two real lines (Z in the transposed planes) into the spectrum.
+  subroutine split_pairs(t, b)
+    type(mirror_transform_t), intent(in) :: t
+    type(mirror_buffer_t), intent(inout) :: b
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    integer :: n, k, p
+    integer(i8) :: line, row
+    complex(C_DOUBLE_COMPLEX) :: here, there
+    n = t%box(3)
+    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, n, int(t%lines)])
+    do line = 1, t%lines
+      do k = 0, n / 2
+        row = k + 1 + (line - 1) * (n / 2 + 1)
+        do p = 1, t%row / 2
+          here = z(p, k + 1, line)
+          there = conjg(z(p, mod(n - k, n) + 1, line))
+          b%spectrum(2 * p - 1, row) = 0.5_dp * (here + there)
+          b%spectrum(2 * p, row) = cmplx(0.0_dp, -0.5_dp, C_DOUBLE_COMPLEX) * (here - there)
+        end do
+      end do
+    end do
+  end subroutine split_pairs
+
+  !> The inverse of split_pairs: Z(k) = A(k) + i B(k) for every k (A(n - k) = conj A(k)) into the
+  !> transposed planes, whose inverse transform is then a + i b.
+  subroutine join_pairs(t, b)
+    type(mirror_transform_t), intent(in) :: t
+    type(mirror_buffer_t), intent(inout) :: b
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    integer :: n, k, p
+    integer(i8) :: line, row
+    complex(C_DOUBLE_COMPLEX), parameter :: i = (0.0_dp, 1.0_dp)
+    n = t%box(3)
+    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, n, int(t%lines)])
+    do line = 1, t%lines
+      do k = 0, n / 2
+        row = k + 1 + (line - 1) * (n / 2 + 1)
+        do p = 1, t%row / 2
+          z(p, k + 1, line) = b%spectrum(2 * p - 1, row) + i * b%spectrum(2 * p, row)
+          if (k > 0 .and. 2 * k /= n) z(p, n - k + 1, line) = conjg(b%spectrum(2 * p - 1, row)) + &
+                                                              i * conjg(b%spectrum(2 * p, row))
+        end do
+      end do
+    end do
+  end subroutine join_pairs
 
   !> One axis' r2r passes of every run, with the slot moves and zeros around them (module header).
   subroutine run_passes(t, b, class, axis, direction)
