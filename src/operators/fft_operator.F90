@@ -18,6 +18,11 @@
 !> kernel, which fills the box, is transformed once from one octant of displacements by its mirror
 !> parities into the same layout (kernel_spectrum.f90).
 !> The mirror of the slow axis halves the kernel kept (find_mirror_signs).
+!> On a bead set that is its own mirror image along two lattice axes, the products run by
+!> mirror-parity class instead (theory.md T4, "Mirror classes"): those axes are the fast and the
+!> middle one, each vector's classes are folded onto the fundamental beads and transformed by
+!> cosine and sine transforms (mirror_classes.F90, mirror_transform.f90), and the kernel is kept
+!> on the octant of frequencies (mirrored_product, multiply_classes).
 !>
 !> Kernel symmetries, which make the stored kernel one real number per (a <= b) pair and
 !> frequency instead of nb^2 complex ones:
