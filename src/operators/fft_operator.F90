@@ -232,8 +232,7 @@ contains
   pure subroutine fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, sites, freq_planes, data_planes, frequencies, half, log_sites, pruned, round_entry
-    real(dp) :: copies, allowance, low_buffer
+    real(dp) :: nb, packed, sites, freq_planes, data_planes, frequencies, half, pruned
     integer :: data(3)
     if (count(size%mirrors) >= 2) then
       call mirrored_fft_cost(size, cost)
@@ -246,7 +245,6 @@ contains
     call fft_box_and_data(size%spans, cost%fft_box, data)
     cost%frequency_lines = cost%fft_box(2)
     sites = product(real(cost%fft_box, dp))
-    log_sites = log(sites) / log(2.0_dp)
     ! Per field, the flops of the pruned transform in units of a site's log2 (module header of
     ! pruned_transform.f90): the fast axis on the data rows, the middle on the data planes, the slow whole.
     pruned = (real(data(3), dp) * data(2) * cost%fft_box(1) * log(real(cost%fft_box(1), dp)) &
@@ -261,26 +259,7 @@ contains
     cost%fft_buffer = 16 * nb * max(frequencies, &
                                     (freq_planes * data(3) + data_planes * cost%fft_box(2)) * half)
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
-    ! The kernel's rounds work in the buffer; one entry per rank that does not fit gets its own
-    ! scratch (kernel_spectrum.f90: octant, what a rank sends and receives).
-    round_entry = 8 * (product(real(cost%fft_box / 2 + 1, dp)) &
-                       + (cost%fft_box(2) + size%n_ranks * freq_planes) * (cost%fft_box(3) / 2 + 1) * half)
-    if (round_entry > cost%fft_buffer) cost%transient = cost%transient + round_entry
-    ! With the copies of the batch that solves the motions together (make_copies: one per further
-    ! motion, within a quarter of the kernel or 64 MiB), for order L and for the companion.
-    copies = real(min(max_copies, max(size%solves, 1)) - 1, dp)
-    allowance = max(cost%kernel / 4, 2.0_dp**26)
-    low_buffer = cost%fft_buffer * size%nb_low / nb
-    cost%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
-    if (low_buffer > 0) cost%companion = cost%companion + low_buffer * min(copies, real(floor(allowance / low_buffer), dp))
-    cost%fft_buffer = cost%fft_buffer * (1 + min(copies, real(floor(allowance / cost%fft_buffer), dp)))
-    ! The kernel from its octant, the entries split over the ranks (kernel_spectrum.f90): each
-    ! entry formed at the octant's displacements, its three passes of extended lines and its
-    ! exchange (about six transform units per point, measured on a 113081-bead sphere).
-    cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
-                         + packed * (fill_seconds * product(real(size%spans + 1, dp)) &
-                                     + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
-                         / size%n_ranks
+    call batch_and_setup_cost(size, freq_planes, cost)
     cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * pruned &
                                 + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
@@ -294,8 +273,7 @@ contains
   pure subroutine mirrored_fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, lines, planes, frequencies, sites, buffer, transforms, round_entry, copies, allowance, &
-                low_buffer, log_sites
+    real(dp) :: nb, packed, lines, planes, frequencies, transforms
     integer :: axes(3), data(3), half(2), fundamental(2)
     nb = size%nb
     packed = nb * (nb + 1) / 2
@@ -311,25 +289,10 @@ contains
     lines = real(ceiling(real(half(2), dp) / size%n_ranks), dp)
     planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     frequencies = lines * (cost%fft_box(3) / 2 + 1) * half(1)
-    sites = product(real(cost%fft_box, dp))
-    log_sites = log(sites) / log(2.0_dp)
     cost%kernel = 8 * packed * frequencies
-    buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * cost%fft_box(3) * half(1))
-    cost%fft_buffer = buffer
-    if (size%n_ranks > 1) cost%transposes = transpose_fraction * buffer
-    round_entry = 8 * (product(real(cost%fft_box / 2 + 1, dp)) &
-                       + (cost%fft_box(2) + size%n_ranks * lines) * (cost%fft_box(3) / 2 + 1) * half(1))
-    if (round_entry > buffer) cost%transient = cost%transient + round_entry
-    copies = real(min(max_copies, max(size%solves, 1)) - 1, dp)
-    allowance = max(cost%kernel / 4, 2.0_dp**26)
-    low_buffer = buffer * size%nb_low / nb
-    cost%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
-    if (low_buffer > 0) cost%companion = cost%companion + low_buffer * min(copies, real(floor(allowance / low_buffer), dp))
-    cost%fft_buffer = buffer * (1 + min(copies, real(floor(allowance / buffer), dp)))
-    cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
-                         + packed * (fill_seconds * product(real(size%spans + 1, dp)) &
-                                     + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
-                         / size%n_ranks
+    cost%fft_buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * cost%fft_box(3) * half(1))
+    if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
+    call batch_and_setup_cost(size, lines, cost)
     ! Per field, in the pruned transform's units (a site's log2): the passes of the fast and the
     ! middle axis count r2r_factor of a complex transform of their length, the slow pass a real one.
     transforms = (r2r_factor * (real(fundamental(2), dp) * data(3) * half(1) * log(real(cost%fft_box(1), dp)) &
@@ -340,6 +303,37 @@ contains
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * transforms + multiply_seconds * size%nb_low * &
                                 (size%nb_low + 1) / 2 * half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks
   end subroutine mirrored_fft_cost
+
+  !> The terms fft_cost and mirrored_fft_cost share, from cost%fft_box, cost%kernel, one buffer
+  !> (cost%fft_buffer) and the spectrum lines a rank holds: the kernel rounds' own scratch where the
+  !> buffer cannot hold one entry (kernel_spectrum.f90: octant, what a rank sends and receives),
+  !> the copies of the batch that solves the motions together (make_copies: one per further
+  !> motion, within a quarter of the kernel or 64 MiB) for order L and the companion, and the
+  !> set-up time: the blocks, then the kernel from its octant with the entries split over the
+  !> ranks (each formed at the octant's displacements, three passes of extended lines and the
+  !> exchange: about six transform units per point, measured on a 113081-bead sphere).
+  pure subroutine batch_and_setup_cost(size, lines, cost)
+    type(job_size_t), intent(in) :: size
+    real(dp), intent(in) :: lines
+    type(operator_cost_t), intent(inout) :: cost
+    real(dp) :: nb, half, round_entry, copies, allowance, low_buffer, log_sites
+    nb = size%nb
+    half = cost%fft_box(1) / 2 + 1
+    log_sites = log(product(real(cost%fft_box, dp))) / log(2.0_dp)
+    round_entry = 8 * (product(real(cost%fft_box / 2 + 1, dp)) &
+                       + (cost%fft_box(2) + size%n_ranks * lines) * (cost%fft_box(3) / 2 + 1) * half)
+    if (round_entry > cost%fft_buffer) cost%transient = cost%transient + round_entry
+    copies = real(min(max_copies, max(size%solves, 1)) - 1, dp)
+    allowance = max(cost%kernel / 4, 2.0_dp**26)
+    low_buffer = cost%fft_buffer * size%nb_low / nb
+    cost%companion = low_buffer * merge(1 + transpose_fraction, 1.0_dp, size%n_ranks > 1)
+    if (low_buffer > 0) cost%companion = cost%companion + low_buffer * min(copies, real(floor(allowance / low_buffer), dp))
+    cost%fft_buffer = cost%fft_buffer * (1 + min(copies, real(floor(allowance / cost%fft_buffer), dp)))
+    cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
+                         + nb * (nb + 1) / 2 * (fill_seconds * product(real(size%spans + 1, dp)) &
+                                                + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
+                         / size%n_ranks
+  end subroutine batch_and_setup_cost
 
   !> The padded box and the data box (span + 1 sites) in the FFT's axis order, as plan_transforms
   !> lays them (the axes sorted by padded size, the first of equal ones first).
@@ -1074,19 +1068,12 @@ contains
     type(fft_operator_t), target, intent(inout) :: op
     integer, intent(in) :: wanted
     type(error_t) :: err
-    real(dp) :: buffer_bytes, allowance
     integer :: n_copies, c, failed
     logical :: made
     real(C_DOUBLE), pointer :: data_planes(:)
     PetscInt :: slab_length
     PetscErrorCode :: ierr
-    buffer_bytes = 8.0_dp * max(size(op%transform%all, kind=i8), 1_i8)
-    allowance = 2.0_dp**26
-    if (allocated(op%kernel)) allowance = max(allowance, 2.0_dp * size(op%kernel, kind=i8))
-    if (associated(op%shared_kernel)) allowance = max(allowance, 2.0_dp * size(op%shared_kernel, kind=i8))
-    n_copies = min(wanted, max_copies) - 1
-    n_copies = int(min(real(n_copies, dp), allowance / buffer_bytes))
-    call MPI_Allreduce(MPI_IN_PLACE, n_copies, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)
+    n_copies = copies_allowed(op, wanted, 8.0_dp * max(size(op%transform%all, kind=i8), 1_i8))
     allocate (op%copies(max(n_copies, 0)), op%copy_slabs(max(n_copies, 0)))
     do c = 1, size(op%copies)
       call size_pruned_transform(op%comm, op%block_size, op%box, op%transform%data, op%copies(c), err)
@@ -1107,6 +1094,22 @@ contains
       PetscCallA(VecCreateMPIWithArray(op%comm, 1, slab_length, PETSC_DECIDE, data_planes, op%copy_slabs(c), ierr))
     end do
   end subroutine make_copies
+
+  !> Collective. Further buffers of buffer_bytes each for batches of up to `wanted` vectors (one
+  !> is there already): max_copies in all at most, in no more than a quarter of the kernel's
+  !> memory (or 64 MiB), the fewest any rank allows.
+  integer function copies_allowed(op, wanted, buffer_bytes) result(n_copies)
+    type(fft_operator_t), intent(in) :: op
+    integer, intent(in) :: wanted
+    real(dp), intent(in) :: buffer_bytes
+    real(dp) :: allowance
+    PetscErrorCode :: ierr
+    allowance = 2.0_dp**26
+    if (allocated(op%kernel)) allowance = max(allowance, 2.0_dp * size(op%kernel, kind=i8))
+    if (associated(op%shared_kernel)) allowance = max(allowance, 2.0_dp * size(op%shared_kernel, kind=i8))
+    n_copies = int(min(real(min(wanted, max_copies) - 1, dp), allowance / buffer_bytes))
+    call MPI_Allreduce(MPI_IN_PLACE, n_copies, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)
+  end function copies_allowed
 
   !> multipole_operator_t%free_batches: the copies of the transform (made again when needed).
   subroutine free_copies(this)
@@ -1136,7 +1139,7 @@ contains
     type(fft_operator_t), target, intent(inout) :: op
     Vec, intent(in) :: x(:), y(:)   ! PETSc handles: the vectors behind y are written
     type(spectrum_ref_t) :: spectra(size(x))
-    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
+    PetscScalar, pointer :: slab(:)
     PetscErrorCode :: ierr
     type(pruned_transform_t), pointer :: t
     integer :: j, nb
@@ -1175,13 +1178,7 @@ contains
     do j = 1, size(x)
       PetscCallA(VecScatterBegin(op%to_slab, slab_of(j), y(j), INSERT_VALUES, SCATTER_REVERSE, ierr))
       PetscCallA(VecScatterEnd(op%to_slab, slab_of(j), y(j), INSERT_VALUES, SCATTER_REVERSE, ierr))
-      ! + S x for every bead: one product (nb x nb) x (nb x n_local).
-      PetscCallA(VecGetArrayReadF90(x(j), local_x, ierr))
-      PetscCallA(VecGetArrayF90(y(j), local_y, ierr))
-      if (op%n_local > 0) call dgemm('N', 'N', nb, int(op%n_local), nb, 1.0_dp, op%self_block, nb, local_x, nb, 1.0_dp, &
-                                     local_y, nb)
-      PetscCallA(VecRestoreArrayF90(y(j), local_y, ierr))
-      PetscCallA(VecRestoreArrayReadF90(x(j), local_x, ierr))
+      call add_self_term(op, x(j), y(j))
     end do
 
   contains
@@ -1446,20 +1443,13 @@ contains
   subroutine make_class_buffers(op, wanted)
     type(fft_operator_t), target, intent(inout) :: op
     integer, intent(in) :: wanted
-    real(dp) :: buffer_bytes, allowance
     integer :: n_buffers, c, failed
     logical :: made
     type(mirror_buffer_t), allocatable :: buffers(:)
     Vec, allocatable :: slabs(:)
     PetscInt :: slab_length
     PetscErrorCode :: ierr
-    buffer_bytes = 8.0_dp * max(size(op%buffers(1)%all, kind=i8), 1_i8)
-    allowance = 2.0_dp**26
-    if (allocated(op%kernel)) allowance = max(allowance, 2.0_dp * size(op%kernel, kind=i8))
-    if (associated(op%shared_kernel)) allowance = max(allowance, 2.0_dp * size(op%shared_kernel, kind=i8))
-    n_buffers = min(wanted, max_copies)
-    n_buffers = 1 + int(min(real(n_buffers - 1, dp), allowance / buffer_bytes))
-    call MPI_Allreduce(MPI_IN_PLACE, n_buffers, 1, MPI_INTEGER, MPI_MIN, op%comm, ierr)
+    n_buffers = 1 + copies_allowed(op, wanted, 8.0_dp * max(size(op%buffers(1)%all, kind=i8), 1_i8))
     allocate (buffers(n_buffers), slabs(n_buffers))
     buffers(1) = op%buffers(1)
     slabs(1) = op%buffer_slabs(1)
@@ -1489,7 +1479,7 @@ contains
     integer :: item_vector(n_classes * size(x)), item_class(n_classes * size(x)), classes(n_classes)
     integer :: n_items, n, j, k, first, batch
     logical :: started(size(x))
-    PetscScalar, pointer :: local_x(:), local_y(:), slab(:)
+    PetscScalar, pointer :: slab(:)
     PetscErrorCode :: ierr
 
     n_items = 0
@@ -1523,15 +1513,25 @@ contains
       end do
     end do
     do j = 1, size(x)
-      ! + S x for every bead: one product (nb x nb) x (nb x n_local).
-      PetscCallA(VecGetArrayReadF90(x(j), local_x, ierr))
-      PetscCallA(VecGetArrayF90(y(j), local_y, ierr))
-      if (op%n_local > 0) call dgemm('N', 'N', op%block_size, int(op%n_local), op%block_size, 1.0_dp, op%self_block, &
-                                     op%block_size, local_x, op%block_size, 1.0_dp, local_y, op%block_size)
-      PetscCallA(VecRestoreArrayF90(y(j), local_y, ierr))
-      PetscCallA(VecRestoreArrayReadF90(x(j), local_x, ierr))
+      call add_self_term(op, x(j), y(j))
     end do
   end subroutine mirrored_product
+
+  !> y += S x for every bead of this rank: one product (nb x nb) x (nb x n_local).
+  subroutine add_self_term(op, x, y)
+    type(fft_operator_t), intent(in) :: op
+    Vec, intent(in) :: x, y   ! PETSc handles: the vector behind y is written
+    PetscScalar, pointer :: local_x(:), local_y(:)
+    PetscErrorCode :: ierr
+    integer :: nb
+    nb = op%block_size
+    PetscCallA(VecGetArrayReadF90(x, local_x, ierr))
+    PetscCallA(VecGetArrayF90(y, local_y, ierr))
+    if (op%n_local > 0) call dgemm('N', 'N', nb, int(op%n_local), nb, 1.0_dp, op%self_block, nb, local_x, nb, 1.0_dp, &
+                                   local_y, nb)
+    PetscCallA(VecRestoreArrayF90(y, local_y, ierr))
+    PetscCallA(VecRestoreArrayReadF90(x, local_x, ierr))
+  end subroutine add_self_term
 
   !> The spectra of the first size(classes) buffers, buffer k of class classes(k), times the
   !> class's kernel frequency by frequency: one pass over the kernel for all. A spectrum row
