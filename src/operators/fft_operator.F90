@@ -88,15 +88,15 @@ module beadmob_fft_operator
     !> The pruned transforms of the nb fields (pruned_transform.f90): buffer, plans, this rank's
     !> data planes and frequencies
     type(pruned_transform_t) :: transform
-    !> Slots 1..n_even: the even block of the frequency product (even under inversion; in the
-    !> mirror classes, even along the slow axis)
+    !> Slots 1..n_even: the even block of the whole-box frequency product (even under inversion;
+    !> the mirror classes' product marks its real block by slow_even instead)
     integer :: n_even = 0
     integer, allocatable :: slot(:)         ! field slot of each unknown
     logical, allocatable :: inversion_even(:)   ! by slot
     !> Mirror classes (mirror_classes.F90): the bead set is symmetric under the mirrors of the
     !> fast and the middle axis, and each product runs class by class on the mirror transform
     !> (mirror_transform.f90) instead of the pruned one. Slots are ordered by their signs
-    !> (slow, fast, middle); field_sign(slot, 1:2) the fast and middle ones; class_factor(e, c)
+    !> (fast, middle, slow; order_by_mirrors); field_sign(slot, 1:2) the fast and middle ones; class_factor(e, c)
     !> the sign of packed entry e in class c relative to the kernel (theory.md T4).
     logical :: mirrored = .false.
     logical :: use_mirrors = .true.         ! set before create: mirror classes where they apply
