@@ -32,7 +32,7 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(16) = [ &
+  type(option_t), parameter :: options(17) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
@@ -42,6 +42,8 @@ module beadmob_command_line
              'symmetric bead set (a comparison)'), &
     option_t('solve_apart', '', switch, 'solve the motions one KSPSolve after another (KSP monitors apply) ' // &
              'instead of together'), &
+    option_t('solve_undeflated', '', switch, 'solve the motions together without their coarse space (the ' // &
+             'preconditioned right-hand sides, deflation_space.F90; a comparison)'), &
     option_t('near_field_radius', 'R', real_number, 'pairs within R (d) in the preconditioning matrix (default 0)'), &
     option_t('near_field_cluster', 'C', integer_number, 'and pairs within the same C x C x C cube of lattice cells'), &
     option_t('geometry_only', '', switch, 'build and check the bead model, skip &hydrodynamics'), &
@@ -228,6 +230,8 @@ contains
         job%fft_mirror_classes = .false.
       case ('solve_apart')
         job%solve_apart = .true.
+      case ('solve_undeflated')
+        job%deflation = .false.
       case ('near_field_radius')
         job%near_field_radius = number
       case ('near_field_cluster')

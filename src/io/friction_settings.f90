@@ -71,6 +71,10 @@ module beadmob_friction_settings
     !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
     !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
     logical :: solve_apart = .false.
+    !> Motions solved together are deflated by the coarse space of their preconditioned
+    !> right-hand sides where their solves can share directions (deflation_space.F90); false
+    !> (-solve_undeflated): plain CG
+    logical :: deflation = .true.
     !> Pairs within this distance (d) enter the near-field preconditioning matrix; with no pairs
     !> (radius < 1 and no clusters) the preconditioner is the single-bead PCSHELL instead.
     real(dp) :: near_field_radius = 0.0_dp

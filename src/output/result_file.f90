@@ -201,6 +201,7 @@ contains
     call write_attribute(group, 'solve_true_relative_residual', job_result%solves%true_relative_residual, err)
     call write_attribute(group, 'ksp_type', trim(job_result%solves%ksp_type), err)
     call write_attribute(group, 'solved_together', job_result%solves%solved_together, err)
+    call write_attribute(group, 'deflation_vectors', job_result%solves%deflation_vectors, err)
     call write_attribute(group, 'pc_type', trim(job_result%solves%pc_type), err)
     call write_attribute(group, 'ksp_relative_tolerance', job_result%solves%relative_tolerance, err)
     call write_attribute(group, 'plain_symmetry_error', job_result%solves%plain_symmetry_error, err)
@@ -361,6 +362,7 @@ contains
     call write_attribute(group, 'companion_iterations', job_result%companion_solves%iterations, err)
     call write_attribute(group, 'companion_converged_reason', job_result%companion_solves%converged_reason, err)
     call write_attribute(group, 'companion_solved_together', job_result%companion_solves%solved_together, err)
+    call write_attribute(group, 'companion_deflation_vectors', job_result%companion_solves%deflation_vectors, err)
     call write_attribute(group, 'companion_true_relative_residual', job_result%companion_solves%true_relative_residual, err)
     call write_attribute(group, 'companion_natural_relative_residual', &
                          job_result%companion_solves%natural_relative_residual, err)

@@ -241,7 +241,8 @@ contains
       call mark(2)
 
       call create_motion_solver(solver, ctx%comm, matrix, near_field, basis%size, size(centres, 2, kind=i8), first, count, &
-                                settings%krylov_rtol, 'solve', report, bead_blocks, op, settings%solve_apart)
+                                settings%krylov_rtol, 'solve', report, bead_blocks, op, settings%solve_apart, &
+                                settings%deflation)
       solver_made = .true.
       if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
         checkpoint_key(settings, centres, reference_point, basis%size, job_result%operator_name))
@@ -326,7 +327,8 @@ contains
       if (.not. err%failed) then
         call create_motion_solver(low_solver, ctx%comm, low_op%matrix, low_preconditioning, low%size, &
                                   size(centres, 2, kind=i8), first, count, settings%krylov_rtol, 'companion solve', &
-                                  report, low_blocks, low_op, settings%solve_apart)
+                                  report, low_blocks, low_op, settings%solve_apart, &
+                                  settings%deflation)
         call move_alloc(low_start, low_solver%initial_guess)
         call solve_level(low_solver, low_op, low, projection(unknowns, :), job_result%companion_multipole_friction, &
                          job_result%companion_solves, err)

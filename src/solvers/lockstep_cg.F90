@@ -16,6 +16,7 @@ module beadmob_lockstep_cg
   use beadmob_kinds, only: dp
   use beadmob_lapack, only: dsyev
   use beadmob_multipole_operator, only: multipole_operator_t
+  use beadmob_deflation_space, only: deflation_space_t, deflate_start, project_direction
   implicit none
   private
   public :: krylov_limits_t, solve_lockstep, finished_interface
@@ -46,8 +47,10 @@ contains
   !> Collective. Solves A x_j = b_j (A: op's product, B: the preconditioner pc, which must be SPD)
   !> for every j, from x_j as given when nonzero_guess, else from zero; `finished` is called for
   !> each system as it stops, in the order they stop (several in one iteration: ascending j).
-  !> stopped: a call of `finished` asked to stop.
-  subroutine solve_lockstep(op, pc, b, x, nonzero_guess, limits, finished, stopped)
+  !> stopped: a call of `finished` asked to stop. With `deflation` (deflation_space.F90) every
+  !> system is deflated by its coarse space: the start x + Z E^+ Z^T r, the search directions
+  !> A-orthogonal to Z, and the largest eigenvalue reported at least the coarse space's.
+  subroutine solve_lockstep(op, pc, b, x, nonzero_guess, limits, finished, stopped, deflation)
     class(multipole_operator_t), intent(inout) :: op
     PC, intent(in) :: pc
     Vec, intent(in) :: b(:), x(:)
@@ -55,14 +58,17 @@ contains
     type(krylov_limits_t), intent(in) :: limits
     procedure(finished_interface) :: finished
     logical, intent(out) :: stopped
+    type(deflation_space_t), intent(in), optional :: deflation
     Vec :: r(size(b)), z(size(b)), p(size(b)), w(size(b))
     real(dp), dimension(size(b)) :: norm, beta, beta_old, step, curvature, curvature_old, scale, tolerance, norm0
     real(dp), allocatable :: diagonal(:, :), off_diagonal(:, :)
-    logical :: running(size(b))
+    logical :: running(size(b)), deflating
     integer :: iterations(size(b)), n, j, i
     PetscErrorCode :: ierr
 
     n = size(b)
+    deflating = .false.
+    if (present(deflation)) deflating = deflation%size > 0
     stopped = .false.
     allocate (diagonal(min(limits%max_iterations, max_lanczos), n), off_diagonal(min(limits%max_iterations, max_lanczos), n))
     diagonal = 0
@@ -84,25 +90,30 @@ contains
     norm = 0
     norm0 = 0
 
-    ! r = b - A x (or b), z = B r, ||z||; the test's reference ||B b|| (KSPConvergedDefault).
+    ! r = b - A x (or b), deflated, z = B r, ||z||; the test's reference ||B b|| (KSPConvergedDefault).
     if (nonzero_guess) then
       call op%apply_many(x, w)
       do j = 1, n
         PetscCallA(VecWAXPY(r(j), -1.0_dp, w(j), b(j), ierr))
-        PetscCallA(PCApply(pc, b(j), w(j), ierr))
       end do
-      call norms(w, running, norm0)
     else
       do j = 1, n
         PetscCallA(VecZeroEntries(x(j), ierr))
         PetscCallA(VecCopy(b(j), r(j), ierr))
       end do
     end if
+    if (nonzero_guess .or. deflating) then
+      do j = 1, n
+        PetscCallA(PCApply(pc, b(j), w(j), ierr))
+      end do
+      call norms(w, running, norm0)
+    end if
+    if (deflating) call deflate_start(deflation, x, r)
     do j = 1, n
       PetscCallA(PCApply(pc, r(j), z(j), ierr))
     end do
     call norms(z, running, norm)
-    if (.not. nonzero_guess) norm0 = norm
+    if (.not. (nonzero_guess .or. deflating)) norm0 = norm
     where (norm0 == 0) norm0 = norm   ! a zero right-hand side with a nonzero guess
     tolerance = max(limits%rtol * norm0, limits%abstol)
     call test(0)
@@ -125,6 +136,7 @@ contains
           if (i < max_lanczos) off_diagonal(i + 1, j) = sqrt(abs(scale(j))) / step(j)
           PetscCallA(VecAYPX(p(j), scale(j), z(j), ierr))   ! p = z + scale p
         end if
+        if (deflating .and. running(j)) call project_direction(deflation, z(j), p(j))
         if (stopped) exit
       end do
       if (stopped) exit
@@ -192,6 +204,7 @@ contains
       real(dp) :: largest, smallest
       running(k) = .false.
       call lanczos_extremes(diagonal(:, k), off_diagonal(:, k), min(iterations(k), max_lanczos), largest, smallest)
+      if (deflating) largest = max(largest, deflation%largest)
       call finished(k, iterations(k), why, largest, smallest, stopped)
     end subroutine finish
   end subroutine solve_lockstep

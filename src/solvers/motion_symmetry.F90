@@ -31,6 +31,9 @@ module beadmob_motion_symmetry
     !> Per unit motion: 0 = solved, else the solved motion it is derived from, with the sign and
     !> the symmetry index (1..48) of motion = sign * Q(source motion)
     integer :: source(6) = 0, sign(6) = 1, symmetry(6) = 0
+    !> coupled(m, n): no symmetry of the group keeps motions m and n each with a different sign,
+    !> so their Krylov spaces can share directions (deflation_space.F90)
+    logical :: coupled(6, 6) = .true.
     !> D_Q of each derived motion's symmetry (nb, nb, 6), and the bead permutation as a scatter
     real(dp), allocatable :: transform(:, :, :)
     VecScatter :: permute(6)
@@ -96,6 +99,7 @@ contains
 
     symmetry%group_order = count(in_group)
     call orbit_sources(in_group, symmetry%source, symmetry%sign, symmetry%symmetry)
+    symmetry%coupled = coupled_motions(in_group)
     if (all(symmetry%source == 0)) return
 
     call build_spatial_index(centres, index, err)
@@ -176,6 +180,27 @@ contains
       end do
     end do
   end subroutine orbit_sources
+
+  !> coupled(m, n) unless a symmetry of the group maps motion m to sign_m m and n to sign_n n with
+  !> sign_m /= sign_n: then A (which commutes with the symmetry) never mixes their solves, the
+  !> right-hand side and every Krylov vector of one being even and of the other odd under it.
+  pure function coupled_motions(in_group) result(coupled)
+    logical, intent(in) :: in_group(n_symmetries)
+    logical :: coupled(6, 6)
+    integer :: s, m, n, target(6), sign(6)
+    coupled = .true.
+    do s = 1, n_symmetries
+      if (.not. in_group(s)) cycle
+      do m = 1, 6
+        call image_motion(symmetry_matrix(s), m, target(m), sign(m))
+      end do
+      do m = 1, 6
+        do n = 1, 6
+          if (target(m) == m .and. target(n) == n .and. sign(m) /= sign(n)) coupled(m, n) = .false.
+        end do
+      end do
+    end do
+  end function coupled_motions
 
   !> The Krylov solves the `requested` motions need when the motions that the symmetry group
   !> in_group gives are derived (as solve_motions does: a requested derived motion needs its

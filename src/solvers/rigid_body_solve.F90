@@ -27,6 +27,7 @@ module beadmob_rigid_body_solve
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_multipole_operator, only: multipole_operator_t
   use beadmob_lockstep_cg, only: krylov_limits_t, solve_lockstep
+  use beadmob_deflation_space, only: deflation_space_t, make_deflation_space, destroy_deflation_space
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
@@ -53,6 +54,9 @@ module beadmob_rigid_body_solve
     !> 1: the motions solved here ran together (lockstep_cg.F90, one batched product per
     !> iteration); 0: one KSPSolve after another, or nothing solved
     integer :: solved_together = 0
+    !> Vectors of the coarse space the solves together were deflated by (deflation_space.F90;
+    !> 0: none)
+    integer :: deflation_vectors = 0
     real(dp) :: relative_tolerance = 0.0_dp
     !> ||Z - Z^T|| / ||Z|| of the plain estimate Z_mn = c_m . q_n (a measure of the solver error)
     real(dp) :: plain_symmetry_error = 0.0_dp
@@ -110,6 +114,9 @@ module beadmob_rigid_body_solve
     !> iteration) when the Krylov method is CG in the preconditioned norm, as KSP would solve
     !> them one at a time with `limits`; otherwise one KSPSolve after another.
     logical :: together = .false.
+    !> Motions solved together are deflated by their coarse space (deflation_space.F90) where
+    !> at least two of them are coupled (motion_symmetry_t%coupled)
+    logical :: deflate = .false.
     class(multipole_operator_t), pointer :: op => null()
     type(krylov_limits_t) :: limits
   end type motion_solver_t
@@ -126,9 +133,10 @@ contains
   !> factorisation by MUMPS of preconditioning_matrix; relative_tolerance unless -ksp_rtol is
   !> given. Every -ksp_/-pc_ option applies. bead_blocks must outlive the solver. With `op` (the
   !> operator of `matrix`, which must outlive the solver too) and not `apart`, the motions are
-  !> solved together when the Krylov method allows it (motion_solver_t%together).
+  !> solved together when the Krylov method allows it (motion_solver_t%together), and deflated
+  !> when `deflate` (motion_solver_t%deflate).
   subroutine create_motion_solver(solver, comm, matrix, preconditioning_matrix, nb, n_total, first_bead, n_local, &
-                                  relative_tolerance, label, progress, bead_blocks, op, apart)
+                                  relative_tolerance, label, progress, bead_blocks, op, apart, deflate)
     type(motion_solver_t), intent(out) :: solver
     MPI_Comm, intent(in) :: comm
     Mat, intent(in) :: matrix, preconditioning_matrix
@@ -139,7 +147,7 @@ contains
     logical, intent(in) :: progress
     type(bead_block_preconditioner_t), intent(in), optional, target :: bead_blocks
     class(multipole_operator_t), intent(inout), optional, target :: op
-    logical, intent(in), optional :: apart
+    logical, intent(in), optional :: apart, deflate
     PetscErrorCode :: ierr
     integer :: motion
     KSPType :: ksp_type
@@ -179,6 +187,7 @@ contains
       PetscCallA(KSPGetNormType(solver%ksp, norm_type, ierr))
       solver%together = ksp_type == KSPCG .and. norm_type == KSP_NORM_PRECONDITIONED
       if (present(apart)) solver%together = solver%together .and. .not. apart
+      if (present(deflate)) solver%deflate = solver%together .and. deflate
       PetscCallA(KSPGetTolerances(solver%ksp, rtol, abstol, dtol, max_iterations, ierr))
       solver%limits = krylov_limits_t(rtol, abstol, dtol, int(max_iterations))
       solver%op => op
@@ -244,7 +253,9 @@ contains
     real(dp), intent(out) :: friction(6, 6)
     type(solve_statistics_t), intent(out) :: stats
     type(error_t), intent(inout) :: err
-    logical :: computed(6), stopped
+    logical :: computed(6), stopped, coupled(6, 6)
+    logical, allocatable :: in_coarse_space(:)
+    type(deflation_space_t) :: coarse_space
     real(dp) :: started, elapsed, solve_seconds
     integer :: solves_done, solves_planned, k
     integer, allocatable :: to_solve(:)
@@ -331,8 +342,15 @@ contains
     stopped = .false.
     started = MPI_Wtime()
     if (size(to_solve) > 0 .and. solver%together) then
+      ! The coarse space: the right-hand sides of the motions that share directions with another
+      coupled = .true.
+      if (allocated(solver%symmetry)) coupled = solver%symmetry%coupled
+      in_coarse_space = [(solver%deflate .and. count(coupled(to_solve(k), to_solve)) >= 2, k=1, size(to_solve))]
+      call make_deflation_space(solver%op, solver%pc, rhs(to_solve), in_coarse_space, coarse_space)
+      stats%deflation_vectors = coarse_space%size
       call solve_lockstep(solver%op, solver%pc, rhs(to_solve), solution(to_solve), allocated(solver%initial_guess), &
-                          solver%limits, finished_together, stopped)
+                          solver%limits, finished_together, stopped, coarse_space)
+      call destroy_deflation_space(coarse_space)
     else
       do k = 1, size(to_solve)
         started = MPI_Wtime()

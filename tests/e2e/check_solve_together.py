@@ -1,5 +1,7 @@
 """check_solve_together.py BEADMOB MPIEXEC RANKS WORKDIR INPUT: the motions solved together
-(src/solvers/lockstep_cg.F90, the default) against one KSPSolve after another (-solve_apart),
+(src/solvers/lockstep_cg.F90, the default; here without the deflation that is the default too,
+-solve_undeflated, whose iterations differ by design: check_deflation.py) against one KSPSolve
+after another (-solve_apart),
 with the FFT operator (batched products) and the direct one (apply_many's plain loop); the
 companion too.
 
@@ -80,7 +82,7 @@ def main(beadmob, mpiexec, ranks, workdir, input_path):
     for old in workdir.glob("*.h5"):
         old.unlink()
     for operator in ("fft", "direct"):
-        together = run(beadmob, mpiexec, ranks, workdir, input_path, "-operator", operator)
+        together = run(beadmob, mpiexec, ranks, workdir, input_path, "-operator", operator, "-solve_undeflated")
         apart = run(beadmob, mpiexec, ranks, workdir, input_path, "-operator", operator, "-solve_apart")
         compare(together, apart, f"operator {operator}")
     gmres = run(beadmob, mpiexec, ranks, workdir, input_path, "-ksp_type", "gmres")
