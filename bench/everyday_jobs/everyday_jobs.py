@@ -30,25 +30,13 @@ sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
 sys.path.insert(0, str(ROOT / "tests" / "e2e"))
 from offlattice import jittered  # noqa: E402
 import solver_promise  # noqa: E402
+from eden_body import eden_body  # noqa: E402
 
 RANKS = 2
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-
-
-def eden_body(n, seed=1):
-    """A compact random lattice body: from one bead, add a random free face neighbour of a
-    random bead until there are n (Eden growth)."""
-    rng = np.random.default_rng(seed)
-    beads, taken = [(0, 0, 0)], {(0, 0, 0)}
-    steps = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
-    while len(beads) < n:
-        x, y, z = beads[rng.integers(len(beads))]
-        dx, dy, dz = steps[rng.integers(6)]
-        candidate = (x + dx, y + dy, z + dz)
-        if candidate not in taken:
-            taken.add(candidate)
-            beads.append(candidate)
-    return np.array(beads, float)
+# Launched as scripts/mpi-env.sh launches on one node (Open MPI's shared-memory pml, not UCX's
+# start-up probing), both builds alike.
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_pml=os.environ.get("OMPI_MCA_pml", "ob1"))
 
 
 def dense_rpy_friction(points):
@@ -100,7 +88,9 @@ def run(exe, input_path, workdir):
         record = {"friction": h["friction"][()], "multipole_friction": h["multipole_friction"][()],
                   "bound": solver_promise.bound(h), "coefficients": h["coefficients"][()],
                   "error": h["coefficient_error"][()] if "coefficient_error" in h else None,
-                  "memory": float(h.attrs["peak_memory_bytes"]) / 2**30}
+                  "memory": float(h.attrs["peak_memory_bytes"]) / 2**30,
+                  "iterations": int(np.sum(h.attrs["solve_iterations"]))
+                  + int(np.sum(h.attrs["companion_iterations"]) if "companion_iterations" in h.attrs else 0)}
     return wall, job, record
 
 
@@ -147,7 +137,8 @@ def main():
                     wall, job, records[key] = run(exe, nml, work)
                     times[key].append(wall if measure == "wall" else job)
             agree = agreement(records["this"], records["before"]) if args.before else float("nan")
-            rows.append((label, measure, {key: median(v) for key, v in times.items()}, key_name, agree))
+            iterations = "/".join(str(records[key]["iterations"]) for key, _ in builds)
+            rows.append((label, measure, {key: median(v) for key, v in times.items()}, key_name, agree, iterations))
             print(label, rows[-1][2], agree, flush=True)
         sphere = {}
         if args.sphere:
@@ -168,22 +159,24 @@ def main():
             dense[name] = median(seconds)
             print(name, "dense RPY", dense[name], flush=True)
     header = "| job | measured | this build (s) |" + (" before (s) | before / this | friction difference / allowed |"
-                                                       if args.before else "")
-    rule = "|---|---|---|" + ("---|---|---|" if args.before else "")
+                                                       if args.before else "") + " iterations |"
+    rule = "|---|---|---|" + ("---|---|---|" if args.before else "") + "---|"
     lines = [f"# Everyday jobs{': ' + args.title if args.title else ''}", "",
              f"Written by `bench/everyday_jobs/everyday_jobs.py`: {RANKS} ranks, medians of {args.repeats} runs"
              + (", the two builds alternated" if args.before else "") + "; `job` is the friction job's own time "
-             "(phase `total` in the result file), `wall` the whole process from `mpiexec` to exit.", "",
+             "(phase `total` in the result file), `wall` the whole process from `mpiexec` to exit, launched with "
+             f"Open MPI's pml {ENV['OMPI_MCA_pml']} (scripts/mpi-env.sh).", "",
              header, rule]
-    for label, measure, t, _, agree in rows:
+    for label, measure, t, _, agree, iterations in rows:
         line = f"| {label} | {measure} | {t['this']:.2f} |"
         if args.before:
             line += f" {t['before']:.2f} | {t['before'] / t['this']:.2f} | {agree:.2f} |"
-        lines.append(line)
+        lines.append(line + f" {iterations} |")
     if args.before:
         lines += ["", "Friction difference / allowed: the largest entry of |friction (this) - friction (before)| "
                   "over the sum of the two runs' solver bounds (tests/e2e/solver_promise.py), last run of each "
-                  "row; at most 1 means the builds agree within what the solver promises."]
+                  "row; at most 1 means the builds agree within what the solver promises. Iterations: the Krylov "
+                  "iterations of the job's solves and its companion's, summed over the motions (this / before)."]
     if sphere:
         lines += ["", "The filled lattice sphere of radius 62.1 (about 1e6 beads), one run per build:", "",
                   "| build | friction job (s) | peak memory per rank (GiB) | mu11 | its error bar |", "|---|---|---|---|---|"]
@@ -198,7 +191,7 @@ def main():
     lines += ["", "The dense RPY code beside them (numpy, one process, median of the same repeats): "
               + ", ".join(f"{name.replace('_', ' ')} beads {seconds:.2f} s" for name, seconds in dense.items())
               + ". beadmob's whole process against it: "
-              + ", ".join(f"{name.replace('_', ' ')} {t['this'] / dense[name]:.2f}x" for _, _, t, name, _ in rows if name)
+              + ", ".join(f"{name.replace('_', ' ')} {t['this'] / dense[name]:.2f}x" for _, _, t, name, _, _ in rows if name)
               + " (above 1: beadmob slower)."]
     Path(args.out).write_text("\n".join(lines) + "\n")
 

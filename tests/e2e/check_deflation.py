@@ -22,6 +22,7 @@ import h5py
 import numpy as np
 
 import solver_promise
+from eden_body import eden_body
 
 failures = []
 
@@ -30,20 +31,6 @@ def check(condition, message):
     print(("ok:     " if condition else "FAILED: ") + message, flush=True)
     if not condition:
         failures.append(message)
-
-
-def eden_body(n, seed):
-    """From one bead, a random free face neighbour of a random bead until there are n."""
-    rng = np.random.default_rng(seed)
-    beads, taken = [(0, 0, 0)], {(0, 0, 0)}
-    steps = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
-    while len(beads) < n:
-        x, y, z = beads[rng.integers(len(beads))]
-        dx, dy, dz = steps[rng.integers(6)]
-        if (x + dx, y + dy, z + dz) not in taken:
-            taken.add((x + dx, y + dy, z + dz))
-            beads.append((x + dx, y + dy, z + dz))
-    return np.array(beads, float)
 
 
 def run(beadmob, mpiexec, ranks, workdir, input_path, *options):
