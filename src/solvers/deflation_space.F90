@@ -13,9 +13,11 @@
 !> system is unchanged (its preconditioned residual against ||B b||).
 !>
 !> The eigenvalue estimate: the Lanczos coefficients of a deflated solve describe the deflated
-!> operator. Its smallest eigenvalue is B A's, its largest is not, so the largest is also taken
-!> from the coarse space itself: the top Rayleigh quotient of B A on span Z, from
-!> E v = mu G v with G = Z^T B^-1 Z = [c_i . B c_j] (35.1 against 35.9 there).
+!> operator. Its smallest eigenvalue is B A's, its largest is not, so the extremes are also taken
+!> from the coarse space itself: the Rayleigh quotients of B A on span Z, from E v = mu G v with
+!> G = Z^T B^-1 Z = [c_i . B c_j] (largest 35.1 against 35.9 there). Both are Ritz values of B A,
+!> inside its spectrum; a solve that the coarse space alone converges (no iteration, as with an
+!> exact preconditioner) has only these.
 module beadmob_deflation_space
 #include "petsc/finclude/petscksp.h"
   use petscksp
@@ -31,8 +33,8 @@ module beadmob_deflation_space
     Vec, allocatable :: basis(:)         ! Z
     Vec, allocatable :: image(:)         ! W = A Z
     real(dp), allocatable :: coarse_inverse(:, :)   ! E^+ (the pseudo-inverse of Z^T A Z)
-    !> The largest Rayleigh quotient of B A on span Z
-    real(dp) :: largest = 0.0_dp
+    !> The extreme Rayleigh quotients of B A on span Z
+    real(dp) :: smallest = 0.0_dp, largest = 0.0_dp
   end type deflation_space_t
 
   !> Eigenvalues below this fraction of the largest are dropped from E and G (dependent or zero
@@ -50,7 +52,7 @@ contains
     logical, intent(in) :: use(:)
     type(deflation_space_t), intent(out) :: space
     Vec, allocatable :: sources(:)
-    real(dp), allocatable :: coarse(:, :), gram(:, :)
+    real(dp), allocatable :: coarse(:, :), gram(:, :), row(:)
     integer :: k, n
     PetscErrorCode :: ierr
 
@@ -58,7 +60,7 @@ contains
     space%size = n
     if (n == 0) return
     sources = pack(b, use)
-    allocate (space%basis(n), space%image(n), coarse(n, n), gram(n, n))
+    allocate (space%basis(n), space%image(n), coarse(n, n), gram(n, n), row(n))
     do k = 1, n
       PetscCallA(VecDuplicate(sources(k), space%basis(k), ierr))
       PetscCallA(VecDuplicate(sources(k), space%image(k), ierr))
@@ -66,13 +68,15 @@ contains
     end do
     call op%apply_many(space%basis, space%image)
     do k = 1, n
-      PetscCallA(VecMDot(space%basis(k), n, space%image, coarse(k, :), ierr))
-      PetscCallA(VecMDot(sources(k), n, space%basis, gram(k, :), ierr))
+      PetscCallA(VecMDot(space%basis(k), n, space%image, row, ierr))
+      coarse(k, :) = row
+      PetscCallA(VecMDot(sources(k), n, space%basis, row, ierr))
+      gram(k, :) = row
     end do
     coarse = 0.5_dp * (coarse + transpose(coarse))   ! symmetric up to rounding
     gram = 0.5_dp * (gram + transpose(gram))
     space%coarse_inverse = pseudo_inverse(coarse)
-    space%largest = largest_generalized(coarse, gram)
+    call coarse_extremes(coarse, gram, space%smallest, space%largest)
   end subroutine make_deflation_space
 
   !> Collective. x <- x + Z E^+ Z^T r and r <- r - W E^+ Z^T r for each system: then Z^T r = 0.
@@ -130,14 +134,16 @@ contains
     end do
   end function pseudo_inverse
 
-  !> The largest mu of coarse v = mu gram v on the range of gram (gram positive semi-definite).
-  function largest_generalized(coarse, gram) result(largest)
+  !> The extreme mu of coarse v = mu gram v on the range of gram (gram positive semi-definite;
+  !> 0 and 0 when it is zero).
+  subroutine coarse_extremes(coarse, gram, smallest, largest)
     real(dp), intent(in) :: coarse(:, :), gram(:, :)
-    real(dp) :: largest
+    real(dp), intent(out) :: smallest, largest
     real(dp) :: vectors(size(gram, 1), size(gram, 1)), values(size(gram, 1))
     real(dp), allocatable :: half(:, :), reduced(:, :), reduced_vectors(:, :), reduced_values(:), kept_values(:)
     logical :: kept(size(gram, 1))
     integer :: k, m
+    smallest = 0
     largest = 0
     call eigen(gram, vectors, values)
     kept = values > relative_cutoff * maxval(values)
@@ -151,8 +157,9 @@ contains
     reduced = matmul(transpose(half), matmul(coarse, half))
     allocate (reduced_vectors(m, m), reduced_values(m))
     call eigen(0.5_dp * (reduced + transpose(reduced)), reduced_vectors, reduced_values)
+    smallest = minval(reduced_values)
     largest = maxval(reduced_values)
-  end function largest_generalized
+  end subroutine coarse_extremes
 
   !> Eigenvalues (ascending) and eigenvectors of a symmetric matrix (LAPACK dsyev).
   subroutine eigen(matrix, vectors, values)

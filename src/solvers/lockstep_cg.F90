@@ -50,7 +50,8 @@ contains
   !> each system as it stops, in the order they stop (several in one iteration: ascending j).
   !> stopped: a call of `finished` asked to stop. With `deflation` (deflation_space.F90) every
   !> system is deflated by its coarse space: the start x + Z E^+ Z^T r, the search directions
-  !> A-orthogonal to Z, and the largest eigenvalue reported at least the coarse space's.
+  !> A-orthogonal to Z, and the extreme eigenvalues reported those of the Lanczos coefficients and
+  !> of the coarse space together.
   subroutine solve_lockstep(op, pc, b, x, nonzero_guess, limits, finished, stopped, deflation)
     class(multipole_operator_t), intent(inout) :: op
     PC, intent(in) :: pc
@@ -205,7 +206,14 @@ contains
       real(dp) :: largest, smallest
       running(k) = .false.
       call lanczos_extremes(diagonal(:, k), off_diagonal(:, k), min(iterations(k), max_lanczos), largest, smallest)
-      if (deflating) largest = max(largest, deflation%largest)
+      if (deflating) then   ! the coarse space's Ritz values too (deflation_space.F90)
+        if (smallest > 0) then
+          smallest = min(smallest, deflation%smallest)
+        else
+          smallest = deflation%smallest
+        end if
+        largest = max(largest, deflation%largest)
+      end if
       call finished(k, iterations(k), why, largest, smallest, stopped)
     end subroutine finish
   end subroutine solve_lockstep
