@@ -6,9 +6,10 @@ Each job runs with options A and options B in alternation (both see the same mac
 `--repeats` times, no table cache (BEADMOB_CACHE unset). From each result file: the blocks phase
 (the operator's set-up, FFT plans included), the solve and companion phases, the job (`total`)
 and the time per operator product of the order-L solve (its phase over its products: every CG
-iteration and one true-residual product per computed motion). The table gives medians, the
-ratio B / A of the job times, and whether the two runs' friction agrees within what the solver
-promises for both (tests/e2e/solver_promise.py).
+iteration, one true-residual product per computed motion and one per coarse vector of a
+deflation). The table gives medians, the ratio B / A of the job times, the Krylov iterations, and
+whether the two runs' friction agrees within what the solver promises for both
+(tests/e2e/solver_promise.py).
 """
 import argparse
 import os
@@ -25,12 +26,13 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "bench" / "everyday_jobs"))
 sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
 sys.path.insert(0, str(ROOT / "tests" / "e2e"))
-from everyday_jobs import eden_body, write_beads  # noqa: E402
+from everyday_jobs import write_beads  # noqa: E402
+from eden_body import eden_body  # noqa: E402
 import solver_promise  # noqa: E402
 
 RANKS = 2
 ENV = {k: v for k, v in os.environ.items() if k != "BEADMOB_CACHE"}
-ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_pml=ENV.get("OMPI_MCA_pml", "ob1"))
 
 
 def run(exe, nml, options, workdir):
@@ -42,9 +44,11 @@ def run(exe, nml, options, workdir):
     with h5py.File(result) as f:
         h = f["hydrodynamics"]
         seconds = dict(zip(h.attrs["phase_names"].decode().split(), h.attrs["phase_seconds"]))
-        products = int(np.sum(h.attrs["solve_iterations"])) + int(np.sum(h.attrs["solve_source"] >= 0))
+        products = (int(np.sum(h.attrs["solve_iterations"])) + int(np.sum(h.attrs["solve_source"] >= 0))
+                    + (int(h.attrs["deflation_vectors"]) if "deflation_vectors" in h.attrs else 0))
         return {"blocks": seconds["blocks"], "solve": seconds["solve"], "companion": seconds["companion"],
                 "total": seconds["total"], "product": seconds["solve"] / products,
+                "iterations": int(np.sum(h.attrs["solve_iterations"])) + int(np.sum(h.attrs["companion_iterations"])),
                 "memory": float(h.attrs["peak_memory_bytes"]) / 2**20,
                 "friction": h["friction"][()], "multipole_friction": h["multipole_friction"][()],
                 "bound": solver_promise.bound(h)}
@@ -65,6 +69,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", required=True)
     parser.add_argument("--title", default="")
+    parser.add_argument("--note", default="", help="a paragraph written below the table")
     args = parser.parse_args()
     exe = os.path.abspath(args.exe)
     sets = {"A": shlex.split(args.a), "B": shlex.split(args.b)}
@@ -86,24 +91,26 @@ def main():
                 for key in runs:
                     runs[key].append(run(exe, nml, sets[key], work))
             med = {key: {name: float(np.median([r[name] for r in rs])) for name in
-                         ("blocks", "solve", "companion", "total", "product", "memory")} for key, rs in runs.items()}
+                         ("blocks", "solve", "companion", "total", "product", "memory", "iterations")} for key, rs in runs.items()}
             rows.append((label, med, agreement(runs["A"][-1], runs["B"][-1])))
             print(label, med, flush=True)
     lines = [f"# {args.title or 'Side by side'}", "",
              f"Written by `bench/side_by_side/side_by_side.py`: {RANKS} ranks, medians of {args.repeats} runs of "
              f"each option set in alternation, no table cache. A: `{args.a}`; B: `{args.b}`. Phases in seconds "
              "(`blocks`: the operator's set-up, FFT plans included); `product`: the order-L solve phase over its "
-             "operator products; `agree`: the largest friction difference of the last pair over what the solver "
+             "operator products; `iterations`: the Krylov iterations of the solves and the companion's, summed over the motions; `agree`: the largest friction difference of the last pair over what the solver "
              "promises for both (at most 1: equal within the promise).", "",
              "| job | blocks A | blocks B | solve A | solve B | companion A | companion B | product A (ms) | "
-             "product B (ms) | job A | job B | B / A | memory A (MiB) | memory B (MiB) | agree |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "product B (ms) | job A | job B | B / A | memory A (MiB) | memory B (MiB) | iterations A | iterations B | agree |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for label, med, agree in rows:
         a, b = med["A"], med["B"]
         lines.append(f"| {label} | {a['blocks']:.2f} | {b['blocks']:.2f} | {a['solve']:.2f} | {b['solve']:.2f} | "
                      f"{a['companion']:.2f} | {b['companion']:.2f} | {1e3 * a['product']:.1f} | "
                      f"{1e3 * b['product']:.1f} | {a['total']:.2f} | {b['total']:.2f} | {b['total'] / a['total']:.2f} | "
-                     f"{a['memory']:.0f} | {b['memory']:.0f} | {agree:.2f} |")
+                     f"{a['memory']:.0f} | {b['memory']:.0f} | {a['iterations']:.0f} | {b['iterations']:.0f} | {agree:.2f} |")
+    if args.note:
+        lines += ["", args.note]
     Path(args.out).write_text("\n".join(lines) + "\n")
 
 

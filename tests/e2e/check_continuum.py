@@ -32,16 +32,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
 from beadmob_post.continuum import load_continuum, quadratic_fit  # noqa: E402
+from checklist import check, failures  # noqa: E402
 
-failures = []
 SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
 LADDER = "&continuum levels = 4, offsets = 2, finest_bead_diameter = 0.16 /\n"
-
-
-def check(condition, message):
-    print(("ok:     " if condition else "FAILED: ") + message)
-    if not condition:
-        failures.append(message)
 
 
 def write_input(workdir, name, output, body):

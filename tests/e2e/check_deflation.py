@@ -21,16 +21,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-import solver_promise
+from checklist import check, failures
 from eden_body import eden_body
-
-failures = []
-
-
-def check(condition, message):
-    print(("ok:     " if condition else "FAILED: ") + message, flush=True)
-    if not condition:
-        failures.append(message)
+import solver_promise
 
 
 def run(beadmob, mpiexec, ranks, workdir, input_path, *options):

@@ -17,17 +17,11 @@ import sys
 
 import h5py
 import numpy as np
+from checklist import check, failures
 
 beadmob, mpiexec, ranks, workdir = sys.argv[1:5]
 inputs = sys.argv[5:]
 GIB = 2.0 ** 30
-failures = []
-
-
-def check(condition, message):
-    print(("ok:   " if condition else "FAIL: ") + message)
-    if not condition:
-        failures.append(message)
 
 
 def seconds(text):

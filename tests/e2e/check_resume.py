@@ -26,17 +26,11 @@ import h5py
 import numpy as np
 
 from solver_promise import allowed_difference, bound
+from checklist import check, failures
 
 OUTPUT = "resume_box.h5"
 CHECKPOINT = OUTPUT + ".checkpoint.h5"
 OPTIONS = ["-ksp_rtol", "1e-10", "-fft_planner", "estimate"]
-failures = []
-
-
-def check(condition, message):
-    print(("ok:     " if condition else "FAILED: ") + message)
-    if not condition:
-        failures.append(message)
 
 
 def fnv1a_64(data: bytes) -> str:

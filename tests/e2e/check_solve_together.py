@@ -21,15 +21,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from checklist import check, failures
 import solver_promise
-
-failures = []
-
-
-def check(condition, message):
-    print(("ok:     " if condition else "FAILED: ") + message, flush=True)
-    if not condition:
-        failures.append(message)
 
 
 def run(beadmob, mpiexec, ranks, workdir, input_path, *options):
