@@ -43,23 +43,23 @@ module beadmob_deflation_space
 
 contains
 
-  !> Collective. Z = B b_j for the j in `use` (A: op's product, B: pc), W = A Z in one batched
-  !> product, E^+ and the coarse eigenvalue estimate.
-  subroutine make_deflation_space(op, pc, b, use, space)
+  !> Collective. Z = B b_j for the j where `chosen` (A: op's product, B: pc), W = A Z in one
+  !> batched product, E^+ and the coarse eigenvalue estimate.
+  subroutine make_deflation_space(op, pc, b, chosen, space)
     class(multipole_operator_t), intent(inout) :: op
     PC, intent(in) :: pc
     Vec, intent(in) :: b(:)
-    logical, intent(in) :: use(:)
+    logical, intent(in) :: chosen(:)
     type(deflation_space_t), intent(out) :: space
     Vec, allocatable :: sources(:)
     real(dp), allocatable :: coarse(:, :), gram(:, :), row(:)
     integer :: k, n
     PetscErrorCode :: ierr
 
-    n = count(use)
+    n = count(chosen)
     space%size = n
     if (n == 0) return
-    sources = pack(b, use)
+    sources = pack(b, chosen)
     allocate (space%basis(n), space%image(n), coarse(n, n), gram(n, n), row(n))
     do k = 1, n
       PetscCallA(VecDuplicate(sources(k), space%basis(k), ierr))
