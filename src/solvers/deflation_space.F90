@@ -26,7 +26,7 @@ module beadmob_deflation_space
   use beadmob_multipole_operator, only: multipole_operator_t
   implicit none
   private
-  public :: deflation_space_t, make_deflation_space, deflate_start, project_direction, destroy_deflation_space
+  public :: deflation_space_t, make_deflation_space, deflate_start, project_directions, destroy_deflation_space
 
   type :: deflation_space_t
     integer :: size = 0
@@ -83,30 +83,56 @@ contains
   subroutine deflate_start(space, x, r)
     type(deflation_space_t), intent(in) :: space
     Vec, intent(in) :: x(:), r(:)   ! PETSc handles: the vectors behind them are updated
-    real(dp) :: overlap(space%size)
+    real(dp) :: overlap(space%size, size(x))
     integer :: j
     PetscErrorCode :: ierr
     if (space%size == 0) return
+    call overlaps(r, [(.true., j=1, size(x))], space%basis, overlap)
     do j = 1, size(x)
-      PetscCallA(VecMDot(r(j), space%size, space%basis, overlap, ierr))
-      overlap = matmul(space%coarse_inverse, overlap)
-      PetscCallA(VecMAXPY(x(j), space%size, overlap, space%basis, ierr))
-      PetscCallA(VecMAXPY(r(j), space%size, -overlap, space%image, ierr))
+      overlap(:, j) = matmul(space%coarse_inverse, overlap(:, j))
+      PetscCallA(VecMAXPY(x(j), space%size, overlap(:, j), space%basis, ierr))
+      PetscCallA(VecMAXPY(r(j), space%size, -overlap(:, j), space%image, ierr))
     end do
   end subroutine deflate_start
 
-  !> Collective. p <- p - Z E^+ W^T z: the part of the preconditioned residual z along the
-  !> coarse space taken out of the search direction p = z + beta p (p A-orthogonal to Z).
-  subroutine project_direction(space, z, p)
+  !> Collective. p(j) <- p(j) - Z E^+ W^T z(j) for the systems in `mask`: the part of the
+  !> preconditioned residual z along the coarse space taken out of the search direction
+  !> p = z + beta p (p A-orthogonal to Z).
+  subroutine project_directions(space, z, p, mask)
     type(deflation_space_t), intent(in) :: space
-    Vec, intent(in) :: z, p   ! PETSc handles: the vector behind p is updated
-    real(dp) :: overlap(space%size)
+    Vec, intent(in) :: z(:), p(:)   ! PETSc handles: the vectors behind p are updated
+    logical, intent(in) :: mask(:)
+    real(dp) :: overlap(space%size, size(z))
+    integer :: j
     PetscErrorCode :: ierr
     if (space%size == 0) return
-    PetscCallA(VecMDot(z, space%size, space%image, overlap, ierr))
-    overlap = -matmul(space%coarse_inverse, overlap)
-    PetscCallA(VecMAXPY(p, space%size, overlap, space%basis, ierr))
-  end subroutine project_direction
+    call overlaps(z, mask, space%image, overlap)
+    do j = 1, size(z)
+      if (.not. mask(j)) cycle
+      overlap(:, j) = -matmul(space%coarse_inverse, overlap(:, j))
+      PetscCallA(VecMAXPY(p(j), space%size, overlap(:, j), space%basis, ierr))
+    end do
+  end subroutine project_directions
+
+  !> Collective. result(:, j) = [v(j) . against(k)]_k for the v(j) in `mask`, one reduction for
+  !> all (PETSc's split-phase VecMDotBegin / VecMDotEnd, as lockstep_cg.F90's dots).
+  subroutine overlaps(v, mask, against, result)
+    Vec, intent(in) :: v(:), against(:)
+    logical, intent(in) :: mask(:)
+    real(dp), intent(inout), contiguous :: result(:, :)   ! columns stay in place until VecMDotEnd
+    integer :: j
+    PetscErrorCode :: ierr
+    do j = 1, size(v)
+      if (mask(j)) then
+        PetscCallA(VecMDotBegin(v(j), size(against), against, result(:, j), ierr))
+      end if
+    end do
+    do j = 1, size(v)
+      if (mask(j)) then
+        PetscCallA(VecMDotEnd(v(j), size(against), against, result(:, j), ierr))
+      end if
+    end do
+  end subroutine overlaps
 
   subroutine destroy_deflation_space(space)
     type(deflation_space_t), intent(inout) :: space

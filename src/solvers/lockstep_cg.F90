@@ -17,7 +17,7 @@ module beadmob_lockstep_cg
   use beadmob_kinds, only: dp
   use beadmob_lapack, only: dsyev
   use beadmob_multipole_operator, only: multipole_operator_t
-  use beadmob_deflation_space, only: deflation_space_t, deflate_start, project_direction
+  use beadmob_deflation_space, only: deflation_space_t, deflate_start, project_directions
   implicit none
   private
   public :: krylov_limits_t, solve_lockstep, finished_interface
@@ -138,11 +138,11 @@ contains
           if (i < max_lanczos) off_diagonal(i + 1, j) = sqrt(abs(scale(j))) / step(j)
           PetscCallA(VecAYPX(p(j), scale(j), z(j), ierr))   ! p = z + scale p
         end if
-        if (deflating .and. running(j)) call project_direction(deflation, z(j), p(j))
         if (stopped) exit
       end do
       if (stopped) exit
       if (.not. any(running)) exit
+      if (deflating) call project_directions(deflation, z, p, running)   ! one reduction for all
       call op%apply_many(pack(p, running), pack(w, running))   ! w = A p, all at once
       curvature_old = curvature
       call dots(p, w, running, curvature)
