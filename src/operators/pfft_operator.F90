@@ -27,7 +27,9 @@ module beadmob_pfft_operator
   use beadmob_harmonic_rotation, only: make_rotation_rule, degree_rotations
   use beadmob_lapack, only: dsyev
   use beadmob_fft_operator, only: fft_operator_t, create_fft_operator, destroy_fft_operator, create_fft_companion, fft_size
-  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t, place_block_in_row
+  use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
+  use beadmob_near_pair_matrix, only: near_pair_matrix_t, make_near_pair_matrix, near_pair_product, &
+                                      destroy_near_pair_matrix, hand_over_near_pair_matrix
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within, sort_keys
@@ -42,12 +44,16 @@ module beadmob_pfft_operator
     type(fft_operator_t) :: grid
     integer(i8) :: n_grid = 0          ! grid nodes carrying a stencil
     integer(i8) :: near_pairs = 0      ! near pairs of this rank's rows (i = j included)
-    !> C is block-sparse (PETSc BAIJ, block size nb: 8 bytes per entry). With a companion in view
-    !> (create_pfft_operator's companion_unknowns) its sub-blocks are assembled in the same pass
-    !> (a BAIJ matrix has no sub-matrix of part of each block), kept here until the companion takes them.
-    Mat :: grid_matrix, interpolation, correction, companion_correction
+    !> C is block-sparse, its upper triangle of blocks kept (near_pair_matrix.F90, block size nb:
+    !> 8 bytes per entry). With a companion in view (create_pfft_operator's companion_unknowns) its
+    !> sub-blocks are assembled in the same pass, kept here until the companion takes them.
+    Mat :: grid_matrix, interpolation
+    type(near_pair_matrix_t) :: correction, companion_correction
     logical :: has_companion_correction = .false.
     Vec :: grid_x, grid_y
+    !> Grid vectors (and frame vectors) of the batched products (apply_many), one per vector of
+    !> the largest batch yet; freed by free_batches.
+    Vec, allocatable :: batch_grid_x(:), batch_grid_y(:), batch_frame_x(:), batch_frame_y(:)
     !> The grid is laid along the beads' principal axes when that makes the FFT box smaller (a
     !> turned elongated body): positions in that frame are Q^T (R - centroid), and the operator is
     !> D_Q A' D_Q^T with A' the frame's (theory.md T15), D_Q = O^n(Q) on each (n, sigma) group of
@@ -62,6 +68,8 @@ module beadmob_pfft_operator
     procedure :: create => create_pfft
     procedure :: create_companion => pfft_companion
     procedure :: destroy => destroy_pfft
+    procedure :: apply_many => apply_pfft_many
+    procedure :: free_batches => free_pfft_batches
     procedure, nopass :: cost => pfft_cost
   end type pfft_operator_t
 
@@ -345,18 +353,15 @@ contains
     integer, intent(in), optional :: companion_unknowns(:)
     type(axial_table_t) :: axial
     real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
-                             exact_batch(:, :, :), row_values(:), low_values(:)
+                             exact_batch(:, :, :)
     real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
     integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
     type(spatial_index_t) :: cells
     integer(i8), allocatable :: found(:), upper(:), unused(:)
     integer(i8) :: n_found
-    PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
-    PetscInt :: local_rows, global_rows, block_row(1), nb_petsc, low_size
-    PetscErrorCode :: ierr
     integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), offsets, width, n_pairs, p, q, e, stride, chunk, &
                first_pair, last_pair
-    integer(i8) :: i, last_bead
+    integer(i8) :: i
     nb = op%block_size
     s = op%stencil
     call make_axial_table(basis, axial, comm)
@@ -375,19 +380,13 @@ contains
       end do
     end do
 
-    ! The near pairs of this rank's rows, and the preallocation of C.
+    ! The near pairs of this rank's rows, and the structure of C.
     call build_spatial_index(centres, cells, err)
     if (err%failed) return
-    local_rows = int(op%n_local * nb)
-    global_rows = int(op%n_beads * nb)
-    last_bead = op%first_bead + op%n_local - 1
-    allocate (diagonal(op%n_local), off_diagonal(op%n_local), near(op%n_beads))
+    allocate (near(op%n_beads))
     n_pairs = 0
     do i = 1, op%n_local
       call near_beads(op%first_bead + i - 1)
-      k = count(near(1:n_near) >= op%first_bead .and. near(1:n_near) <= last_bead)
-      diagonal(i) = k
-      off_diagonal(i) = n_near - k
       n_pairs = n_pairs + n_near
     end do
     allocate (pair_row(n_pairs), pair_column(n_pairs))
@@ -399,17 +398,14 @@ contains
       n_pairs = n_pairs + n_near
     end do
     op%near_pairs = n_pairs
-    nb_petsc = nb
-    PetscCallA(MatCreateSBAIJ(comm, nb_petsc, local_rows, local_rows, global_rows, global_rows, 0, diagonal, 0, off_diagonal, op%correction, ierr))
+    call make_near_pair_matrix(comm, nb, op%n_beads, op%first_bead, op%n_local, pair_row, pair_column, op%correction)
     op%has_companion_correction = present(companion_unknowns)
-    if (op%has_companion_correction) then
-      low_size = size(companion_unknowns)
-      PetscCallA(MatCreateSBAIJ(comm, low_size, int(op%n_local) * low_size, int(op%n_local) * low_size, int(op%n_beads) * low_size, int(op%n_beads) * low_size, 0, diagonal, 0, off_diagonal, op%companion_correction, ierr))
-    end if
+    if (op%has_companion_correction) &
+      call make_near_pair_matrix(comm, size(companion_unknowns), op%n_beads, op%first_bead, op%n_local, pair_row, &
+                                 pair_column, op%companion_correction)
 
-    ! Rows in chunks of at most ~64 MB of blocks: in a chunk, the pairs sorted by stencil offset
-    ! (counting sort) share the gathered kernel blocks; then each row is inserted at once with its
-    ! columns in increasing order (PETSc's AIJ then appends instead of shifting entries).
+    ! Rows in chunks of at most ~64 MB of approximations: in a chunk, the pairs sorted by stencil
+    ! offset (counting sort) share the gathered kernel blocks.
     width = 2 * (reach - s) + 1
     offsets = width**3
     stride = (2 * s - 1)**3
@@ -489,45 +485,19 @@ contains
           approximate(:, :, order(q + k - 1) - first_pair + 1) = exact_batch(:, :, k)
         end do
       end do
-      ! C_ij = exact - approximate, a row of blocks at a time
-      p = first_pair
-      do while (p <= last_pair)
-        q = p
-        do while (q < last_pair)
-          if (pair_row(q + 1) /= pair_row(p)) exit
-          q = q + 1
-        end do
-        allocate (row_values(nb * nb * (q - p + 1)), columns(q - p + 1))
-        if (op%has_companion_correction) allocate (low_values(low_size * low_size * (q - p + 1)))
-        do k = p, q
-          if (pair_row(k) == pair_column(k)) then
-            exact = op%self_block
-          else
-            call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
-          end if
-          exact = exact - approximate(:, :, k - first_pair + 1)
-          call place_block_in_row(exact, k - p, q - p + 1, row_values)
-          if (op%has_companion_correction) &
-            call place_block_in_row(exact(companion_unknowns, companion_unknowns), k - p, q - p + 1, low_values)
-          columns(k - p + 1) = pair_column(k) - 1
-        end do
-        block_row(1) = pair_row(p) - 1
-        PetscCallA(MatSetValuesBlocked(op%correction, 1, block_row, int(size(columns)), columns, row_values, INSERT_VALUES, ierr))
-        if (op%has_companion_correction) then
-          PetscCallA(MatSetValuesBlocked(op%companion_correction, 1, block_row, int(size(columns)), columns, low_values, INSERT_VALUES, ierr))
-          deallocate (low_values)
+      ! C_ij = exact - approximate
+      do k = first_pair, last_pair
+        if (pair_row(k) == pair_column(k)) then
+          exact = op%self_block
+        else
+          call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
         end if
-        deallocate (row_values, columns)
-        p = q + 1
+        op%correction%blocks(:, :, k) = exact - approximate(:, :, k - first_pair + 1)
+        if (op%has_companion_correction) &
+          op%companion_correction%blocks(:, :, k) = op%correction%blocks(companion_unknowns, companion_unknowns, k)
       end do
       first_pair = last_pair + 1
     end do
-    PetscCallA(MatAssemblyBegin(op%correction, MAT_FINAL_ASSEMBLY, ierr))
-    PetscCallA(MatAssemblyEnd(op%correction, MAT_FINAL_ASSEMBLY, ierr))
-    if (op%has_companion_correction) then
-      PetscCallA(MatAssemblyBegin(op%companion_correction, MAT_FINAL_ASSEMBLY, ierr))
-      PetscCallA(MatAssemblyEnd(op%companion_correction, MAT_FINAL_ASSEMBLY, ierr))
-    end if
 
   contains
 
@@ -625,7 +595,7 @@ contains
   subroutine turn_vector(op, in, out, to_lab, ierr)
     type(pfft_operator_t), intent(in) :: op
     Vec, intent(in) :: in
-    Vec, intent(inout) :: out
+    Vec, intent(in) :: out   ! a PETSc handle: the vector behind it is written
     logical, intent(in) :: to_lab
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: source(:), target_(:)
@@ -701,7 +671,7 @@ contains
     call sub_unknowns(parent%first_bead, parent%n_local, bead_rows)
     call sub_unknowns(parent%grid%first_bead, parent%grid%n_local, grid_rows)
     PetscCallA(MatCreateSubMatrix(parent%interpolation, bead_rows, grid_rows, MAT_INITIAL_MATRIX, companion%interpolation, ierr))
-    companion%correction = parent%companion_correction   ! taken over: the companion destroys it
+    call hand_over_near_pair_matrix(parent%companion_correction, companion%correction)   ! the companion destroys it
     parent%has_companion_correction = .false.
     PetscCallA(ISDestroy(bead_rows, ierr))
     PetscCallA(ISDestroy(grid_rows, ierr))
@@ -758,9 +728,10 @@ contains
       return
     end if
     PetscCallA(MatDestroy(op%interpolation, ierr))
-    PetscCallA(MatDestroy(op%correction, ierr))
+    call free_pfft_batches(op)
+    call destroy_near_pair_matrix(op%correction)
     if (op%has_companion_correction) then
-      PetscCallA(MatDestroy(op%companion_correction, ierr))
+      call destroy_near_pair_matrix(op%companion_correction)
       op%has_companion_correction = .false.
     end if
     PetscCallA(VecDestroy(op%grid_x, ierr))
@@ -784,24 +755,91 @@ contains
     if (op%turned) then
       call turn_vector(op, x, op%frame_x, .false., ierr)
       CHKERRQ(ierr)
-      call frame_product(op%frame_x, op%frame_y)
+      call frame_products(op, [op%frame_x], [op%frame_y], [op%grid_x], [op%grid_y])
       call turn_vector(op, op%frame_y, y, .true., ierr)
       CHKERRQ(ierr)
     else
-      call frame_product(x, y)
+      call frame_products(op, [x], [y], [op%grid_x], [op%grid_y])
     end if
     ierr = 0
-
-  contains
-
-    !> The product in the grid's frame.
-    subroutine frame_product(u, v)
-      Vec, intent(in) :: u
-      Vec, intent(inout) :: v
-      PetscCall(MatMultTranspose(op%interpolation, u, op%grid_x, ierr))
-      PetscCall(MatMult(op%grid_matrix, op%grid_x, op%grid_y, ierr))
-      PetscCall(MatMult(op%interpolation, op%grid_y, v, ierr))
-      PetscCall(MatMultAdd(op%correction, u, v, v, ierr))
-    end subroutine frame_product
   end subroutine apply_pfft_operator
+
+  !> multipole_operator_t%apply_many: y(j) = A x(j) for the batch at once: the grid's batched
+  !> product (the kernel streamed once, fft_operator.F90) and one pass over C's blocks for all
+  !> vectors (near_pair_matrix.F90).
+  subroutine apply_pfft_many(this, x, y)
+    class(pfft_operator_t), target, intent(inout) :: this
+    Vec, intent(in) :: x(:)
+    Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
+    integer :: n, v
+    PetscErrorCode :: ierr
+    n = size(x)
+    if (.not. allocated(this%batch_grid_x)) call make_batch_vectors(this, n)
+    if (size(this%batch_grid_x) < n) call make_batch_vectors(this, n)
+    if (this%turned) then
+      do v = 1, n
+        PetscCallA(turn_vector(this, x(v), this%batch_frame_x(v), .false., ierr))
+      end do
+      call frame_products(this, this%batch_frame_x(1:n), this%batch_frame_y(1:n), this%batch_grid_x(1:n), &
+                          this%batch_grid_y(1:n))
+      do v = 1, n
+        PetscCallA(turn_vector(this, this%batch_frame_y(v), y(v), .true., ierr))
+      end do
+    else
+      call frame_products(this, x, y, this%batch_grid_x(1:n), this%batch_grid_y(1:n))
+    end if
+  end subroutine apply_pfft_many
+
+  !> v(j) = I G I^T u(j) + C u(j) in the grid's frame, grid_x and grid_y the grid vectors to use.
+  subroutine frame_products(op, u, v, grid_x, grid_y)
+    type(pfft_operator_t), intent(inout) :: op
+    Vec, intent(in) :: u(:), v(:), grid_x(:), grid_y(:)
+    PetscErrorCode :: ierr
+    integer :: j
+    do j = 1, size(u)
+      PetscCallA(MatMultTranspose(op%interpolation, u(j), grid_x(j), ierr))
+    end do
+    call op%grid%apply_many(grid_x, grid_y)
+    do j = 1, size(u)
+      PetscCallA(MatMult(op%interpolation, grid_y(j), v(j), ierr))
+    end do
+    call near_pair_product(op%correction, u, v)
+  end subroutine frame_products
+
+  !> Collective. The grid (and frame) vectors for batches of up to n vectors.
+  subroutine make_batch_vectors(op, n)
+    type(pfft_operator_t), intent(inout) :: op
+    integer, intent(in) :: n
+    PetscErrorCode :: ierr
+    integer :: v
+    call free_pfft_batches(op)
+    allocate (op%batch_grid_x(n), op%batch_grid_y(n), op%batch_frame_x(merge(n, 0, op%turned)), &
+              op%batch_frame_y(merge(n, 0, op%turned)))
+    do v = 1, n
+      PetscCallA(VecDuplicate(op%grid_x, op%batch_grid_x(v), ierr))
+      PetscCallA(VecDuplicate(op%grid_x, op%batch_grid_y(v), ierr))
+      if (.not. op%turned) cycle
+      PetscCallA(VecDuplicate(op%frame_x, op%batch_frame_x(v), ierr))
+      PetscCallA(VecDuplicate(op%frame_x, op%batch_frame_y(v), ierr))
+    end do
+  end subroutine make_batch_vectors
+
+  !> multipole_operator_t%free_batches: the batch's vectors and the grid's batch buffers.
+  subroutine free_pfft_batches(this)
+    class(pfft_operator_t), intent(inout) :: this
+    PetscErrorCode :: ierr
+    integer :: v
+    if (allocated(this%batch_grid_x)) then
+      do v = 1, size(this%batch_grid_x)
+        PetscCallA(VecDestroy(this%batch_grid_x(v), ierr))
+        PetscCallA(VecDestroy(this%batch_grid_y(v), ierr))
+      end do
+      do v = 1, size(this%batch_frame_x)
+        PetscCallA(VecDestroy(this%batch_frame_x(v), ierr))
+        PetscCallA(VecDestroy(this%batch_frame_y(v), ierr))
+      end do
+      deallocate (this%batch_grid_x, this%batch_grid_y, this%batch_frame_x, this%batch_frame_y)
+    end if
+    call this%grid%free_batches()
+  end subroutine free_pfft_batches
 end module beadmob_pfft_operator
