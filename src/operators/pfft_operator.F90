@@ -47,7 +47,10 @@ module beadmob_pfft_operator
     !> C is block-sparse, its upper triangle of blocks kept (near_pair_matrix.F90, block size nb:
     !> 8 bytes per entry). With a companion in view (create_pfft_operator's companion_unknowns) its
     !> sub-blocks are assembled in the same pass, kept here until the companion takes them.
-    Mat :: grid_matrix, interpolation
+    !> I = W (x) 1_nb: W (beads x grid nodes, s^3 weights per bead row) is assembled once, I is
+    !> PETSc's MAIJ view of it for nb unknowns per bead and node (the companion's for its own
+    !> number), so a product reads each weight once for all of a bead's unknowns.
+    Mat :: grid_matrix, node_weights, interpolation
     type(near_pair_matrix_t) :: correction, companion_correction
     logical :: has_companion_correction = .false.
     Vec :: grid_x, grid_y
@@ -272,18 +275,18 @@ contains
                        progress_seconds(MPI_Wtime() - start) // ' s)')
   end subroutine create_pfft_operator
 
-  !> I (bead unknowns x grid unknowns, this rank's bead rows): entry l_g(R_j) between unknown a
-  !> of bead j and unknown a of node g.
+  !> W (this rank's bead rows x grid nodes): entry l_g(R_j) between bead j and node g; and I, the
+  !> same weight between unknown a of bead j and unknown a of node g, as W's MAIJ view.
   subroutine assemble_interpolation(comm, op, first, weights, node_id)
     MPI_Comm, intent(in) :: comm
     type(pfft_operator_t), intent(inout) :: op
     integer, intent(in) :: first(:, :), node_id(0:, 0:, 0:)
     real(dp), intent(in) :: weights(:, :, :)
-    PetscInt :: local_rows, local_columns, global_rows, global_columns, column_start, column_end, row(1)
+    PetscInt :: local_rows, local_nodes, column_start, column_end, row(1)
     PetscInt, allocatable :: diagonal(:), off_diagonal(:), columns(:)
     PetscScalar, allocatable :: values(:)
     PetscErrorCode :: ierr
-    integer :: s, nb, a, m1, m2, m3, k
+    integer :: s, nb, m1, m2, m3, n
     integer(i8) :: i, bead
     Vec :: template
     s = op%stencil
@@ -291,43 +294,38 @@ contains
     PetscCallA(MatCreateVecs(op%grid_matrix, template, PETSC_NULL_VEC, ierr))
     PetscCallA(VecGetOwnershipRange(template, column_start, column_end, ierr))
     PetscCallA(VecDestroy(template, ierr))
-    local_rows = int(op%n_local * nb)
-    global_rows = int(op%n_beads * nb)
-    local_columns = column_end - column_start
-    global_columns = int(op%n_grid * nb)
-    allocate (diagonal(local_rows), off_diagonal(local_rows), columns(s**3), values(s**3))
+    column_start = column_start / nb   ! in nodes
+    column_end = column_end / nb
+    local_rows = int(op%n_local)
+    local_nodes = column_end - column_start
+    allocate (diagonal(max(local_rows, 1)), off_diagonal(max(local_rows, 1)), columns(s**3), values(s**3))
+    do i = 1, op%n_local
+      call stencil_columns(op%first_bead + i - 1)
+      diagonal(i) = count(columns >= column_start .and. columns < column_end)
+      off_diagonal(i) = s**3 - diagonal(i)
+    end do
+    PetscCallA(MatCreateAIJ(comm, local_rows, local_nodes, int(op%n_beads), int(op%n_grid), 0, diagonal, 0, off_diagonal, op%node_weights, ierr))
     do i = 1, op%n_local
       bead = op%first_bead + i - 1
-      call stencil_columns(bead, 1)
-      k = count(columns >= column_start .and. columns < column_end)
-      diagonal((i - 1) * nb + 1:i * nb) = k
-      off_diagonal((i - 1) * nb + 1:i * nb) = s**3 - k
+      call stencil_columns(bead)
+      row(1) = int(bead - 1)
+      PetscCallA(MatSetValues(op%node_weights, 1, row, s**3, columns, values, INSERT_VALUES, ierr))
     end do
-    PetscCallA(MatCreateAIJ(comm, local_rows, local_columns, global_rows, global_columns, 0, diagonal, 0, off_diagonal, op%interpolation, ierr))
-    do i = 1, op%n_local
-      bead = op%first_bead + i - 1
-      do a = 1, nb
-        call stencil_columns(bead, a)
-        row(1) = int((bead - 1) * nb + a - 1)
-        PetscCallA(MatSetValues(op%interpolation, 1, row, s**3, columns, values, INSERT_VALUES, ierr))
-      end do
-    end do
-    PetscCallA(MatAssemblyBegin(op%interpolation, MAT_FINAL_ASSEMBLY, ierr))
-    PetscCallA(MatAssemblyEnd(op%interpolation, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCallA(MatAssemblyBegin(op%node_weights, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCallA(MatAssemblyEnd(op%node_weights, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCallA(MatCreateMAIJ(op%node_weights, nb, op%interpolation, ierr))
 
   contains
 
-    !> columns/values of unknown a of bead j: its stencil's nodes.
-    subroutine stencil_columns(j, a)
+    !> columns/values of bead j: its stencil's nodes (0-based) and weights.
+    subroutine stencil_columns(j)
       integer(i8), intent(in) :: j
-      integer, intent(in) :: a
-      integer :: n
       n = 0
       do m3 = 1, s
         do m2 = 1, s
           do m1 = 1, s
             n = n + 1
-            columns(n) = (node_id(first(1, j) + m1 - 1, first(2, j) + m2 - 1, first(3, j) + m3 - 1) - 1) * nb + a - 1
+            columns(n) = node_id(first(1, j) + m1 - 1, first(2, j) + m2 - 1, first(3, j) + m3 - 1) - 1
             values(n) = weights(m1, 1, j) * weights(m2, 2, j) * weights(m3, 3, j)
           end do
         end do
@@ -645,7 +643,6 @@ contains
     type(pfft_operator_t), target, intent(inout) :: companion
     Mat, intent(out) :: matrix
     type(error_t), intent(inout) :: err
-    IS :: bead_rows, grid_rows
     PetscErrorCode :: ierr
     companion%block_size = size(unknowns)
     companion%n_beads = parent%n_beads
@@ -668,13 +665,12 @@ contains
     end if
     call create_fft_companion(comm, parent%grid, unknowns, companion%grid, companion%grid_matrix, err)
     if (err%failed) return
-    call sub_unknowns(parent%first_bead, parent%n_local, bead_rows)
-    call sub_unknowns(parent%grid%first_bead, parent%grid%n_local, grid_rows)
-    PetscCallA(MatCreateSubMatrix(parent%interpolation, bead_rows, grid_rows, MAT_INITIAL_MATRIX, companion%interpolation, ierr))
+    ! The same weights for the sub-basis's unknowns (a reference: each operator destroys its own).
+    companion%node_weights = parent%node_weights
+    PetscCallA(PetscObjectReference(parent%node_weights, ierr))
+    PetscCallA(MatCreateMAIJ(companion%node_weights, companion%block_size, companion%interpolation, ierr))
     call hand_over_near_pair_matrix(parent%companion_correction, companion%correction)   ! the companion destroys it
     parent%has_companion_correction = .false.
-    PetscCallA(ISDestroy(bead_rows, ierr))
-    PetscCallA(ISDestroy(grid_rows, ierr))
     PetscCallA(MatCreateVecs(companion%grid_matrix, companion%grid_x, companion%grid_y, ierr))
     if (companion%turned) call make_frame_vectors(comm, companion)
     call make_shell(comm, companion, matrix)
@@ -700,23 +696,6 @@ contains
       companion%group_last = companion%group_last(1:groups)
       companion%group_degree = companion%group_degree(1:groups)
     end subroutine companion_groups
-
-    !> The parent's unknowns `unknowns` of this rank's items first..first+n-1 (global, 0-based).
-    subroutine sub_unknowns(first, n, set)
-      integer(i8), intent(in) :: first, n
-      IS, intent(out) :: set
-      PetscInt, allocatable :: indices(:)
-      integer(i8) :: item
-      integer :: a, nb
-      nb = parent%block_size
-      allocate (indices(n * size(unknowns)))
-      do item = 1, n
-        do a = 1, size(unknowns)
-          indices((item - 1) * size(unknowns) + a) = int((first + item - 2) * nb + unknowns(a) - 1)
-        end do
-      end do
-      PetscCallA(ISCreateGeneral(comm, int(size(indices)), indices, PETSC_COPY_VALUES, set, ierr))
-    end subroutine sub_unknowns
   end subroutine create_pfft_companion
 
   subroutine destroy_pfft_operator(op, matrix)
@@ -728,6 +707,7 @@ contains
       return
     end if
     PetscCallA(MatDestroy(op%interpolation, ierr))
+    PetscCallA(MatDestroy(op%node_weights, ierr))
     call free_pfft_batches(op)
     call destroy_near_pair_matrix(op%correction)
     if (op%has_companion_correction) then
