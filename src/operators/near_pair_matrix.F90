@@ -1,5 +1,5 @@
-!> A symmetric block-sparse matrix over bead pairs, kept as its upper triangle of blocks (rows this
-!> rank's beads, columns j >= i), with a product of several vectors at once: the pfft operator's
+!> A symmetric block-sparse matrix over bead pairs, each pair's block kept once (in the row of either
+!> bead: the caller chooses, e.g. to balance the ranks), with a product of several vectors at once: the pfft operator's
 !> near-pair correction C (theory.md T16). Each block is read from memory once per batch and applied
 !> to all its vectors, and to the vectors of both its row (C_ij x_j) and its column (C_ij^T x_i),
 !> where a product per vector (PETSc's SBAIJ) reads all blocks once per vector and per block one
@@ -39,8 +39,9 @@ contains
 
   !> Collective. The structure of C for this rank's rows first_bead .. first_bead + n_local - 1 of
   !> n_beads beads (1-based, global): pair p joins row bead pair_row(p) (ascending) and column bead
-  !> pair_column(p) >= pair_row(p) (ascending within a row). matrix%blocks is allocated for the
-  !> caller to fill in the same order.
+  !> pair_column(p), any bead; every pair of beads appears at most once (C_ij in row i or C_ji =
+  !> C_ij^T in row j), the diagonal as (i, i). matrix%blocks is allocated for the caller to fill in
+  !> the same order.
   subroutine make_near_pair_matrix(comm, block_size, n_beads, first_bead, n_local, pair_row, pair_column, matrix)
     MPI_Comm, intent(in) :: comm
     integer, intent(in) :: block_size
@@ -49,13 +50,14 @@ contains
     type(near_pair_matrix_t), intent(out) :: matrix
     integer, allocatable :: ghost_of(:)
     PetscInt, allocatable :: ghost_block(:)
-    integer :: p, i, c, last_bead
+    integer :: p, i, c, first, last
     IS :: from, to
     Vec :: template, ghosts
     PetscErrorCode :: ierr
     matrix%block_size = block_size
     matrix%n_local = int(n_local)
-    last_bead = int(first_bead + n_local - 1)
+    first = int(first_bead)
+    last = int(first_bead + n_local - 1)
     allocate (matrix%row_start(matrix%n_local + 1), matrix%column(size(pair_row)))
     allocate (matrix%blocks(block_size, block_size, size(pair_row)))
     matrix%row_start = 0
@@ -67,28 +69,28 @@ contains
     do i = 1, matrix%n_local
       matrix%row_start(i + 1) = matrix%row_start(i + 1) + matrix%row_start(i)
     end do
-    ! Ghosts: the columns beyond this rank's beads, numbered in increasing bead order.
-    allocate (ghost_of(last_bead + 1:int(n_beads)))
+    ! Ghosts: the columns of other ranks' beads, numbered in increasing bead order.
+    allocate (ghost_of(int(n_beads)))
     ghost_of = 0
     do p = 1, size(pair_column)
-      if (pair_column(p) > last_bead) ghost_of(pair_column(p)) = 1
+      if (pair_column(p) < first .or. pair_column(p) > last) ghost_of(pair_column(p)) = 1
     end do
     matrix%n_ghosts = 0
-    do c = last_bead + 1, int(n_beads)
+    do c = 1, int(n_beads)
       if (ghost_of(c) == 0) cycle
       matrix%n_ghosts = matrix%n_ghosts + 1
       ghost_of(c) = matrix%n_ghosts
     end do
     allocate (ghost_block(matrix%n_ghosts))
-    do c = last_bead + 1, int(n_beads)
+    do c = 1, int(n_beads)
       if (ghost_of(c) > 0) ghost_block(ghost_of(c)) = c - 1
     end do
     do p = 1, size(pair_column)
       c = pair_column(p)
-      if (c > last_bead) then
+      if (c < first .or. c > last) then
         matrix%column(p) = matrix%n_local + ghost_of(c)
       else
-        matrix%column(p) = c - int(first_bead) + 1
+        matrix%column(p) = c - first + 1
       end if
     end do
     PetscCallA(VecCreateMPI(comm, int(n_local) * block_size, int(n_beads) * block_size, template, ierr))

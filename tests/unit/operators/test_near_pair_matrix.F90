@@ -2,8 +2,9 @@
 !> upper triangle of blocks and applied to a batch of vectors at once). CTest: test_near_pair_matrix_np1/np2.
 !>  1. A batch of three products y + C x equals the dense symmetric matrix built independently
 !>     from the same blocks (C_ij above the diagonal, C_ij^T below it) times x, to 1e-13 of the
-!>     result's max-norm; on 2 ranks pairs cross the ranks' boundary (ghost columns and the reverse
-!>     scatter of their transposed contributions).
+!>     result's max-norm; each pair kept in the row of either bead (by the parity of i + j), so
+!>     on 2 ranks both ranks hold pairs across the boundary (ghost columns below and above the
+!>     rank's beads and the reverse scatter of their transposed contributions).
 !>  2. A batch of one vector gives the same as the batch of three, and the matrix handed over to
 !>     another object (hand_over_near_pair_matrix) still gives it.
 program test_near_pair_matrix
@@ -24,6 +25,8 @@ program test_near_pair_matrix
   integer(i8) :: first, count
   integer, allocatable :: pair_row(:), pair_column(:)
   real(dp) :: dense(n_beads * nb, n_beads * nb), worst
+  real(dp), allocatable :: stored(:, :, :)
+  integer, allocatable :: order(:)
   Vec :: x(n_vectors), y(n_vectors), single(1)
   integer :: i, j, p, v
   PetscErrorCode :: ierr
@@ -33,23 +36,32 @@ program test_near_pair_matrix
   ctx = make_run_context(PETSC_COMM_WORLD)
   call block_range(ctx, int(n_beads, i8), first, count)
 
-  ! Pairs j >= i: the diagonal, near neighbours in the numbering and some far ones (across ranks).
-  allocate (pair_row(0), pair_column(0))
+  ! Pairs i <= j: the diagonal, near neighbours in the numbering and some far ones (across ranks),
+  ! kept in the row of i (block C_ij) when i + j is odd, of j (block C_ji = C_ij^T) otherwise.
+  allocate (pair_row(0), pair_column(0), stored(nb, nb, 0))
   dense = 0.0_dp
   do i = 1, n_beads
     do j = i, n_beads
       if (.not. paired(i, j)) cycle
       dense(block(i), block(j)) = pair_values(i, j)
       dense(block(j), block(i)) = transpose(pair_values(i, j))
-      if (i < first .or. i >= first + count) cycle
-      pair_row = [pair_row, i]
-      pair_column = [pair_column, j]
+      if (mod(i + j, 2) == 1 .or. i == j) then
+        call keep(i, j, pair_values(i, j))
+      else
+        call keep(j, i, transpose(pair_values(i, j)))
+      end if
     end do
   end do
-  call make_near_pair_matrix(ctx%comm, nb, int(n_beads, i8), first, count, pair_row, pair_column, matrix)
-  do p = 1, size(pair_row)
-    matrix%blocks(:, :, p) = pair_values(pair_row(p), pair_column(p))
+  ! in row order, as the matrix takes them
+  order = [(p, p = 1, size(pair_row))]
+  do p = 2, size(order)
+    do j = p, 2, -1
+      if (pair_row(order(j - 1)) <= pair_row(order(j))) exit
+      order([j - 1, j]) = order([j, j - 1])
+    end do
   end do
+  call make_near_pair_matrix(ctx%comm, nb, int(n_beads, i8), first, count, pair_row(order), pair_column(order), matrix)
+  matrix%blocks = stored(:, :, order)
 
   do v = 1, n_vectors
     PetscCallA(VecCreateMPI(ctx%comm, int(count) * nb, n_beads * nb, x(v), ierr))
@@ -87,6 +99,16 @@ program test_near_pair_matrix
   PetscCallA(PetscFinalize(ierr))
 
 contains
+
+  !> The pair (row, column) with its block, if the row is this rank's.
+  subroutine keep(row, column, values)
+    integer, intent(in) :: row, column
+    real(dp), intent(in) :: values(nb, nb)
+    if (row < first .or. row >= first + count) return
+    pair_row = [pair_row, row]
+    pair_column = [pair_column, column]
+    stored = reshape([stored, values], [nb, nb, size(pair_row)])
+  end subroutine keep
 
   logical function paired(i, j)
     integer, intent(in) :: i, j
