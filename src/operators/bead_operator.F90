@@ -2,7 +2,8 @@
 !> owns a contiguous range of beads (block size = unknowns per bead) and computes, for its beads i,
 !>   y_i = S x_i + sum_{j /= i} A(R_i - R_j) x_j
 !> with S the single-bead block and A the two-bead blocks from the block table (theory.md T4).
-!> The whole x is gathered on every rank once per product (direct O(N^2) operator).
+!> The whole x is gathered on every rank once per product (direct O(N^2) operator); a batch of
+!> vectors (apply_many) is multiplied in one pass over the blocks.
 module beadmob_bead_operator
 #include "petsc/finclude/petscmat.h"
   use petscmat
@@ -30,6 +31,7 @@ module beadmob_bead_operator
     procedure :: create => create_direct
     procedure :: create_companion => direct_companion
     procedure :: destroy => destroy_direct
+    procedure :: apply_many => apply_direct_many
     procedure, nopass :: cost => direct_cost
   end type bead_operator_t
 
@@ -208,22 +210,43 @@ contains
     Vec :: x, y
     PetscErrorCode :: ierr
     type(bead_operator_t), pointer :: op
-    PetscScalar, pointer :: all_x(:), local_y(:)
-    integer(i8) :: i, j, bead
-    integer :: nb, k
-    integer(i8) :: row, column
-
     PetscCall(MatShellGetContext(matrix, op, ierr))
+    call direct_products(op, [x], [y])
+    ierr = 0
+  end subroutine apply_bead_operator
+
+  !> multipole_operator_t%apply_many: y(v) = A x(v) for the batch at once, each block looked up
+  !> and read once for all vectors.
+  subroutine apply_direct_many(this, x, y)
+    class(bead_operator_t), target, intent(inout) :: this
+    Vec, intent(in) :: x(:)
+    Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
+    call direct_products(this, x, y)
+  end subroutine apply_direct_many
+
+  !> y(v)_i = S x(v)_i + sum_{j /= i} A(R_i - R_j) x(v)_j for this rank's beads i: every x
+  !> gathered whole, the batch interleaved per bead so that a block meets all its vectors at once.
+  subroutine direct_products(op, x, y)
+    type(bead_operator_t), intent(in) :: op
+    Vec, intent(in) :: x(:), y(:)
+    PetscScalar, pointer :: values(:)
+    real(dp), allocatable :: all_x(:, :, :), local_y(:, :, :)
+    integer(i8) :: i, j, bead
+    integer :: nb, k, v
+    PetscErrorCode :: ierr
     nb = op%block_size
-    PetscCall(VecScatterBegin(op%gather, x, op%gathered, INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCall(VecScatterEnd(op%gather, x, op%gathered, INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCall(VecGetArrayReadF90(op%gathered, all_x, ierr))
-    PetscCall(VecGetArrayF90(y, local_y, ierr))
+    allocate (all_x(nb, size(x), op%n_beads), local_y(nb, size(x), op%n_local))
+    do v = 1, size(x)
+      PetscCallA(VecScatterBegin(op%gather, x(v), op%gathered, INSERT_VALUES, SCATTER_FORWARD, ierr))
+      PetscCallA(VecScatterEnd(op%gather, x(v), op%gathered, INSERT_VALUES, SCATTER_FORWARD, ierr))
+      PetscCallA(VecGetArrayReadF90(op%gathered, values, ierr))
+      all_x(:, v, :) = reshape(values, [nb, int(op%n_beads)])
+      PetscCallA(VecRestoreArrayReadF90(op%gathered, values, ierr))
+    end do
     do i = 1, op%n_local
       bead = op%first_bead + i - 1
-      row = (i - 1) * nb
-      column = (bead - 1) * nb
-      local_y(row + 1:row + nb) = matmul(op%self_block, all_x(column + 1:column + nb))
+      local_y(:, :, i) = 0.0_dp
+      call add_block_product(nb, size(x), op%self_block, all_x(:, :, bead), local_y(:, :, i))
       do j = 1, op%n_beads
         if (j == bead) cycle
         if (op%table%on_lattice) then
@@ -231,23 +254,27 @@ contains
         else
           k = int((i - 1) * op%n_beads + j)
         end if
-        column = (j - 1) * nb
-        call add_block_product(nb, op%table%blocks(:, :, k), all_x(column + 1:column + nb), local_y(row + 1:row + nb))
+        call add_block_product(nb, size(x), op%table%blocks(:, :, k), all_x(:, :, j), local_y(:, :, i))
       end do
     end do
-    PetscCall(VecRestoreArrayF90(y, local_y, ierr))
-    PetscCall(VecRestoreArrayReadF90(op%gathered, all_x, ierr))
-    ierr = 0
-  end subroutine apply_bead_operator
+    do v = 1, size(x)
+      PetscCallA(VecGetArrayF90(y(v), values, ierr))
+      values = reshape(local_y(:, v, :), [nb * int(op%n_local)])
+      PetscCallA(VecRestoreArrayF90(y(v), values, ierr))
+    end do
+  end subroutine direct_products
 
-  !> y += B x for one nb x nb block (column-major loop order for contiguous access).
-  pure subroutine add_block_product(nb, block, x, y)
-    integer, intent(in) :: nb
-    real(dp), intent(in) :: block(nb, nb), x(nb)
-    real(dp), intent(inout) :: y(nb)
-    integer :: column
-    do column = 1, nb
-      y = y + block(:, column) * x(column)
+  !> y += B x for one nb x nb block and n_vectors columns (column-major loop order for contiguous
+  !> access).
+  pure subroutine add_block_product(nb, n_vectors, block, x, y)
+    integer, intent(in) :: nb, n_vectors
+    real(dp), intent(in) :: block(nb, nb), x(nb, n_vectors)
+    real(dp), intent(inout) :: y(nb, n_vectors)
+    integer :: column, v
+    do v = 1, n_vectors
+      do column = 1, nb
+        y(:, v) = y(:, v) + block(:, column) * x(column, v)
+      end do
     end do
   end subroutine add_block_product
 end module beadmob_bead_operator
