@@ -26,6 +26,7 @@ program test_fft_operator
   use beadmob_kinds, only: dp, i8
   use beadmob_testing
   use beadmob_random_vectors, only: fill_random, hash_uniform
+  use beadmob_batch_products, only: batch_difference
   use beadmob_errors, only: error_t
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, block_range
@@ -106,8 +107,6 @@ contains
     Vec :: x, u, y_direct, y_fft, au, du
     integer(i8) :: first, count
     real(dp) :: difference, reference, uav, vau, scale, worst
-    Vec :: many_x(7), many_y(7)
-    integer :: j
     character(len=:), allocatable :: label
 
     label = name // ', L = ' // str(order) // ', L2 = ' // str(potential_order) // ', ' // str(size(centres, 2)) // ' beads'
@@ -154,33 +153,12 @@ contains
 
     ! Seven products at once (more than one batch of max_copies): each the single product, to
     ! rounding (the same arithmetic per vector, the kernel streamed once per batch).
-    do j = 1, 7
-      many_x(j) = merge(x, u, mod(j, 2) == 1)
-      PetscCallA(VecDuplicate(x, many_y(j), ierr))
-    end do
-    call fast%apply_many(many_x, many_y)
-    worst = 0.0_dp
-    do j = 1, 7
-      PetscCallA(VecAXPY(many_y(j), -1.0_dp, merge(y_fft, au, mod(j, 2) == 1), ierr))
-      PetscCallA(VecNorm(many_y(j), NORM_INFINITY, difference, ierr))
-      worst = max(worst, difference / scale)
-      PetscCallA(VecDestroy(many_y(j), ierr))
-    end do
+    worst = batch_difference(fast, x, u, y_fft, au, scale)
     call check(suite, worst <= 1.0e-13_dp, label // ': batched products = single products, relative ' // str(worst))
     ! The direct operator's batch likewise (each block read once for all vectors).
     PetscCallA(VecDuplicate(x, du, ierr))
     PetscCallA(MatMult(direct_matrix, u, du, ierr))
-    do j = 1, 7
-      PetscCallA(VecDuplicate(x, many_y(j), ierr))
-    end do
-    call direct%apply_many(many_x, many_y)
-    worst = 0.0_dp
-    do j = 1, 7
-      PetscCallA(VecAXPY(many_y(j), -1.0_dp, merge(y_direct, du, mod(j, 2) == 1), ierr))
-      PetscCallA(VecNorm(many_y(j), NORM_INFINITY, difference, ierr))
-      worst = max(worst, difference / scale)
-      PetscCallA(VecDestroy(many_y(j), ierr))
-    end do
+    worst = batch_difference(direct, x, u, y_direct, du, scale)
     call check(suite, worst <= 1.0e-13_dp, label // ': direct batched products = single products, relative ' // str(worst))
 
     PetscCallA(VecDestroy(x, ierr))

@@ -23,6 +23,7 @@ program test_offlattice
   use beadmob_kinds, only: dp, i8
   use beadmob_testing
   use beadmob_random_vectors, only: fill_random, hash_uniform
+  use beadmob_batch_products, only: batch_difference
   use beadmob_errors, only: error_t
   use beadmob_strings, only: str
   use beadmob_parallel, only: run_context_t, make_run_context, block_range
@@ -119,10 +120,9 @@ contains
     type(pfft_operator_t), target :: fast
     type(error_t) :: err
     Mat :: direct_matrix, pfft_matrix
-    Vec :: x, u, y_direct, y_fast, au, many_x(7), many_y(7)
+    Vec :: x, u, y_direct, y_fast, au
     integer(i8) :: first, count
     real(dp) :: difference, reference, uav, vau, scale, worst
-    integer :: j
     character(len=:), allocatable :: label
     label = name // ', ' // str(size(centres, 2)) // ' beads, L = 2'
     basis = make_multipole_basis(2, 0)
@@ -154,18 +154,7 @@ contains
     call check(suite, abs(uav - vau) <= 1.0e-12_dp * scale * reference, label // ': pfft operator symmetric')
     ! Seven products at once (apply_many: the grid's batches and one pass over C for all), each the
     ! single product to rounding.
-    do j = 1, 7
-      many_x(j) = merge(x, u, mod(j, 2) == 1)
-      PetscCallA(VecDuplicate(x, many_y(j), ierr))
-    end do
-    call fast%apply_many(many_x, many_y)
-    worst = 0.0_dp
-    do j = 1, 7
-      PetscCallA(VecAXPY(many_y(j), -1.0_dp, merge(y_fast, au, mod(j, 2) == 1), ierr))
-      PetscCallA(VecNorm(many_y(j), NORM_INFINITY, difference, ierr))
-      worst = max(worst, difference / scale)
-      PetscCallA(VecDestroy(many_y(j), ierr))
-    end do
+    worst = batch_difference(fast, x, u, y_fast, au, scale)
     call check(suite, worst <= 1.0e-13_dp, label // ': batched products = single products, relative ' // str(worst))
     PetscCallA(VecDestroy(x, ierr))
     PetscCallA(VecDestroy(u, ierr))
