@@ -128,6 +128,7 @@ module beadmob_fft_operator
     !> max_copies in all, fewer where their buffers would cost more than a quarter of the kernel.
     type(pruned_transform_t), allocatable :: copies(:)
     Vec, allocatable :: copy_slabs(:)
+    integer :: batch_wanted = 0   ! the batch size the copies (or class buffers) were made for
   contains
     procedure :: create => create_fft
     procedure :: create_companion => fft_companion
@@ -1049,12 +1050,23 @@ contains
     Vec, intent(in) :: x(:)
     Vec, intent(in) :: y(:)   ! PETSc handles: the vectors behind them are written
     integer :: first, batch
+    if (size(x) == 0) return
+    ! Buffers for as many vectors as the largest batch yet (up to max_copies): a first batch
+    ! smaller than the later ones (a coarse space of two motions before six in lockstep) must not
+    ! keep them at its size.
+    if (size(x) > this%batch_wanted .and. this%batch_wanted < max_copies) then
+      call free_copies(this)
+      if (this%mirrored) then
+        call make_class_buffers(this, size(x))
+      else
+        call make_copies(this, size(x))
+      end if
+      this%batch_wanted = min(size(x), max_copies)
+    end if
     if (this%mirrored) then
-      if (size(this%buffers) == 1) call make_class_buffers(this, size(x))
       call mirrored_product(this, x, y)
       return
     end if
-    if (.not. allocated(this%copies)) call make_copies(this, size(x))
     batch = 1 + size(this%copies)
     do first = 1, size(x), batch
       call batched_product(this, x(first:min(first + batch - 1, size(x))), y(first:min(first + batch - 1, size(y))))
@@ -1124,6 +1136,7 @@ contains
       this%buffers = this%buffers(1:1)
       this%buffer_slabs = this%buffer_slabs(1:1)
     end if
+    this%batch_wanted = 0
     if (.not. allocated(this%copies)) return
     do c = 1, size(this%copies)
       PetscCallA(VecDestroy(this%copy_slabs(c), ierr))

@@ -334,8 +334,9 @@ contains
   end subroutine assemble_interpolation
 
   !> C: for every near pair (i in this rank's rows, each pair kept once, in one of its two rows:
-  !> C is symmetric; near_beads), the exact block minus the grid's approximation sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D
-  !> correlations of the two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
+  !> C is symmetric; near_beads), the exact block minus the grid's approximation
+  !> sum_delta w(delta) K(g_i - g_j + delta), w the tensor product of the 1-D correlations of the
+  !> two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
   !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
   !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once
   !> per offset instead of once per pair).
@@ -354,7 +355,7 @@ contains
     real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
     integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
     type(spatial_index_t) :: cells
-    integer(i8), allocatable :: found(:), upper(:), unused(:)
+    integer(i8), allocatable :: found(:), kept(:), unused(:)
     integer(i8) :: n_found
     integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), offsets, width, n_pairs, p, q, e, stride, chunk, &
                first_pair, last_pair
@@ -507,12 +508,12 @@ contains
     subroutine near_beads(b)
       integer(i8), intent(in) :: b
       call beads_within(cells, centres, centres(:, b), op%near_radius, found, n_found)
-      upper = pack(found(1:n_found), found(1:n_found) == b .or. &
-                   ((found(1:n_found) > b) .eqv. (mod(found(1:n_found) + b, 2_i8) == 1)))
-      unused = upper
-      call sort_keys(upper, unused)
-      n_near = size(upper)
-      near(1:n_near) = int(upper)
+      kept = pack(found(1:n_found), found(1:n_found) == b .or. &
+                  ((found(1:n_found) > b) .eqv. (mod(found(1:n_found) + b, 2_i8) == 1)))
+      unused = kept
+      call sort_keys(kept, unused)
+      n_near = size(kept)
+      near(1:n_near) = int(kept)
     end subroutine near_beads
   end subroutine assemble_correction
 
@@ -782,7 +783,11 @@ contains
     do j = 1, size(u)
       PetscCallA(MatMultTranspose(op%interpolation, u(j), grid_x(j), ierr))
     end do
-    call op%grid%apply_many(grid_x, grid_y)
+    if (size(u) == 1) then   ! a single product makes no batch copies the grid would keep at one
+      PetscCallA(MatMult(op%grid_matrix, grid_x(1), grid_y(1), ierr))
+    else
+      call op%grid%apply_many(grid_x, grid_y)
+    end if
     do j = 1, size(u)
       PetscCallA(MatMult(op%interpolation, grid_y(j), v(j), ierr))
     end do
