@@ -1,13 +1,13 @@
-!> A symmetric block-sparse matrix over bead pairs, each pair's block kept once (in the row of either
-!> bead: the caller chooses, e.g. to balance the ranks), with a product of several vectors at once: the pfft operator's
-!> near-pair correction C (theory.md T16). Each block is read from memory once per batch and applied
-!> to all its vectors, and to the vectors of both its row (C_ij x_j) and its column (C_ij^T x_i),
-!> where a product per vector (PETSc's SBAIJ) reads all blocks once per vector and per block one
-!> small BLAS call each way; here a row of blocks makes two BLAS products over all its pairs and
-!> vectors. Columns on other ranks are gathered by one VecScatter per vector
-!> before the pass, and their transposed contributions added back by the reverse scatter after it
-!> (each scatter finished before the next begins: several in flight on one VecScatter failed in
-!> PETSc 3.18 to match their ends to their starts, "Could not find pack").
+!> A symmetric block-sparse matrix over bead pairs with a product of several vectors at once: the
+!> pfft operator's near-pair correction C (theory.md T16). Each pair's block is kept once, in the
+!> row of either bead (the caller chooses, e.g. to balance the ranks), and applied both ways,
+!> C_ij x_j to row i and C_ij^T x_i to row j. A pass reads each block once for the whole batch: a
+!> row of blocks makes two BLAS products over all its pairs and vectors (a product per vector,
+!> PETSc's SBAIJ, read all blocks once per vector with one small BLAS call per block and way).
+!> Columns on other ranks are gathered by one VecScatter per vector before the pass, and their
+!> transposed contributions added back by the reverse scatter after it (each scatter finished
+!> before the next begins: several in flight on one VecScatter failed in PETSc 3.18 to match
+!> their ends to their starts, "Could not find pack").
 module beadmob_near_pair_matrix
 #include "petsc/finclude/petscvec.h"
   use petscvec
@@ -21,8 +21,8 @@ module beadmob_near_pair_matrix
   type :: near_pair_matrix_t
     integer :: block_size = 0
     integer :: n_local = 0                   ! this rank's beads (rows)
-    !> The pairs of local row i are row_start(i) .. row_start(i + 1) - 1, in increasing column
-    !> order; column(p) is 1 .. n_local for this rank's beads, n_local + g for ghost g.
+    !> The pairs of local row i are row_start(i) .. row_start(i + 1) - 1; column(p) is
+    !> 1 .. n_local for this rank's beads, n_local + g for ghost g.
     integer, allocatable :: row_start(:), column(:)
     !> C_ij (block_size, block_size, pairs) of pair p = (i, column(p)); filled by the caller.
     real(dp), allocatable :: blocks(:, :, :)
