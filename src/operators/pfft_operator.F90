@@ -53,9 +53,8 @@ module beadmob_pfft_operator
     Mat :: grid_matrix, node_weights, interpolation
     type(near_pair_matrix_t) :: correction, companion_correction
     logical :: has_companion_correction = .false.
-    Vec :: grid_x, grid_y
-    !> Grid vectors (and frame vectors) of the batched products (apply_many), one per vector of
-    !> the largest batch yet; freed by free_batches.
+    !> Grid vectors (and frame vectors) of the products, single or batched (apply_many), one per
+    !> vector of the largest batch yet; freed by free_batches.
     Vec, allocatable :: batch_grid_x(:), batch_grid_y(:), batch_frame_x(:), batch_frame_y(:)
     !> The grid is laid along the beads' principal axes when that makes the FFT box smaller (a
     !> turned elongated body): positions in that frame are Q^T (R - centroid), and the operator is
@@ -65,7 +64,6 @@ module beadmob_pfft_operator
     real(dp) :: frame(3, 3) = 0.0_dp
     real(dp), allocatable :: turn(:, :, :)
     integer, allocatable :: group_first(:), group_last(:), group_degree(:)
-    Vec :: frame_x, frame_y
     logical :: created = .false.
   contains
     procedure :: create => create_pfft
@@ -268,8 +266,6 @@ contains
     call assemble_interpolation(comm, op, first, weights, node_id)
     call assemble_correction(comm, basis, op, grid_centres, first, weights, err, companion_unknowns)
     if (err%failed) return
-    PetscCallA(MatCreateVecs(op%grid_matrix, op%grid_x, op%grid_y, ierr))
-    if (op%turned) call make_frame_vectors(comm, op)
     call make_shell(comm, op, matrix)
     call progress_line(report, 'pfft operator: ' // str(op%near_pairs) // ' near pairs on rank 0 (' // &
                        progress_seconds(MPI_Wtime() - start) // ' s)')
@@ -582,17 +578,6 @@ contains
     op%group_degree = op%group_degree(1:groups)
   end subroutine set_turn
 
-  subroutine make_frame_vectors(comm, op)
-    MPI_Comm, intent(in) :: comm
-    type(pfft_operator_t), intent(inout) :: op
-    PetscErrorCode :: ierr
-    PetscInt :: local_size, global_size
-    local_size = int(op%n_local * op%block_size)
-    global_size = int(op%n_beads * op%block_size)
-    PetscCallA(VecCreateMPI(comm, local_size, global_size, op%frame_x, ierr))
-    PetscCallA(VecDuplicate(op%frame_x, op%frame_y, ierr))
-  end subroutine make_frame_vectors
-
   !> out = D_Q in (to_lab) or D_Q^T in, bead by bead and group by group.
   subroutine turn_vector(op, in, out, to_lab, ierr)
     type(pfft_operator_t), intent(in) :: op
@@ -675,8 +660,6 @@ contains
     PetscCallA(MatCreateMAIJ(companion%node_weights, companion%block_size, companion%interpolation, ierr))
     call hand_over_near_pair_matrix(parent%companion_correction, companion%correction)   ! the companion destroys it
     parent%has_companion_correction = .false.
-    PetscCallA(MatCreateVecs(companion%grid_matrix, companion%grid_x, companion%grid_y, ierr))
-    if (companion%turned) call make_frame_vectors(comm, companion)
     call make_shell(comm, companion, matrix)
 
   contains
@@ -718,12 +701,6 @@ contains
       call destroy_near_pair_matrix(op%companion_correction)
       op%has_companion_correction = .false.
     end if
-    PetscCallA(VecDestroy(op%grid_x, ierr))
-    PetscCallA(VecDestroy(op%grid_y, ierr))
-    if (op%turned) then
-      PetscCallA(VecDestroy(op%frame_x, ierr))
-      PetscCallA(VecDestroy(op%frame_y, ierr))
-    end if
     call destroy_fft_operator(op%grid, op%grid_matrix)
     PetscCallA(MatDestroy(matrix, ierr))
     op%created = .false.
@@ -736,15 +713,7 @@ contains
     PetscErrorCode :: ierr
     type(pfft_operator_t), pointer :: op
     PetscCall(MatShellGetContext(matrix, op, ierr))
-    if (op%turned) then
-      call turn_vector(op, x, op%frame_x, .false., ierr)
-      CHKERRQ(ierr)
-      call frame_products(op, [op%frame_x], [op%frame_y], [op%grid_x], [op%grid_y])
-      call turn_vector(op, op%frame_y, y, .true., ierr)
-      CHKERRQ(ierr)
-    else
-      call frame_products(op, [x], [y], [op%grid_x], [op%grid_y])
-    end if
+    call apply_pfft_many(op, [x], [y])
     ierr = 0
   end subroutine apply_pfft_operator
 
@@ -758,8 +727,8 @@ contains
     integer :: n, v
     PetscErrorCode :: ierr
     n = size(x)
-    if (.not. allocated(this%batch_grid_x)) call make_batch_vectors(this, n)
-    if (size(this%batch_grid_x) < n) call make_batch_vectors(this, n)
+    if (.not. allocated(this%batch_grid_x)) call make_batch_vectors(this, n, x(1))
+    if (size(this%batch_grid_x) < n) call make_batch_vectors(this, n, x(1))
     if (this%turned) then
       do v = 1, n
         PetscCallA(turn_vector(this, x(v), this%batch_frame_x(v), .false., ierr))
@@ -794,40 +763,45 @@ contains
     call near_pair_product(op%correction, u, v)
   end subroutine frame_products
 
-  !> Collective. The grid (and frame) vectors for batches of up to n vectors.
-  subroutine make_batch_vectors(op, n)
+  !> Collective. The grid (and frame) vectors for batches of up to n vectors; the frame vectors
+  !> have the layout of `bead_vector`, any vector of the operator's beads.
+  subroutine make_batch_vectors(op, n, bead_vector)
     type(pfft_operator_t), intent(inout) :: op
     integer, intent(in) :: n
+    Vec, intent(in) :: bead_vector
     PetscErrorCode :: ierr
     integer :: v
-    call free_pfft_batches(op)
+    call destroy_batch_vectors(op)
     allocate (op%batch_grid_x(n), op%batch_grid_y(n), op%batch_frame_x(merge(n, 0, op%turned)), &
               op%batch_frame_y(merge(n, 0, op%turned)))
     do v = 1, n
-      PetscCallA(VecDuplicate(op%grid_x, op%batch_grid_x(v), ierr))
-      PetscCallA(VecDuplicate(op%grid_x, op%batch_grid_y(v), ierr))
+      PetscCallA(MatCreateVecs(op%grid_matrix, op%batch_grid_x(v), op%batch_grid_y(v), ierr))
       if (.not. op%turned) cycle
-      PetscCallA(VecDuplicate(op%frame_x, op%batch_frame_x(v), ierr))
-      PetscCallA(VecDuplicate(op%frame_x, op%batch_frame_y(v), ierr))
+      PetscCallA(VecDuplicate(bead_vector, op%batch_frame_x(v), ierr))
+      PetscCallA(VecDuplicate(bead_vector, op%batch_frame_y(v), ierr))
     end do
   end subroutine make_batch_vectors
 
-  !> multipole_operator_t%free_batches: the batch's vectors and the grid's batch buffers.
-  subroutine free_pfft_batches(this)
-    class(pfft_operator_t), intent(inout) :: this
+  subroutine destroy_batch_vectors(op)
+    type(pfft_operator_t), intent(inout) :: op
     PetscErrorCode :: ierr
     integer :: v
-    if (allocated(this%batch_grid_x)) then
-      do v = 1, size(this%batch_grid_x)
-        PetscCallA(VecDestroy(this%batch_grid_x(v), ierr))
-        PetscCallA(VecDestroy(this%batch_grid_y(v), ierr))
-      end do
-      do v = 1, size(this%batch_frame_x)
-        PetscCallA(VecDestroy(this%batch_frame_x(v), ierr))
-        PetscCallA(VecDestroy(this%batch_frame_y(v), ierr))
-      end do
-      deallocate (this%batch_grid_x, this%batch_grid_y, this%batch_frame_x, this%batch_frame_y)
-    end if
+    if (.not. allocated(op%batch_grid_x)) return
+    do v = 1, size(op%batch_grid_x)
+      PetscCallA(VecDestroy(op%batch_grid_x(v), ierr))
+      PetscCallA(VecDestroy(op%batch_grid_y(v), ierr))
+    end do
+    do v = 1, size(op%batch_frame_x)
+      PetscCallA(VecDestroy(op%batch_frame_x(v), ierr))
+      PetscCallA(VecDestroy(op%batch_frame_y(v), ierr))
+    end do
+    deallocate (op%batch_grid_x, op%batch_grid_y, op%batch_frame_x, op%batch_frame_y)
+  end subroutine destroy_batch_vectors
+
+  !> multipole_operator_t%free_batches: the product vectors and the grid's batch buffers.
+  subroutine free_pfft_batches(this)
+    class(pfft_operator_t), intent(inout) :: this
+    call destroy_batch_vectors(this)
     call this%grid%free_batches()
   end subroutine free_pfft_batches
 end module beadmob_pfft_operator
