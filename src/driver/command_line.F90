@@ -32,7 +32,7 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(17) = [ &
+  type(option_t), parameter :: options(18) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
@@ -40,6 +40,8 @@ module beadmob_command_line
              '(reproducible) or auto (default: measured when remembered with a table cache)'), &
     option_t('fft_whole_box', '', switch, 'FFT products on the whole padded box, not by mirror class of a ' // &
              'symmetric bead set (a comparison)'), &
+    option_t('replicate_products', 'auto|yes|no', word, 'the operator whole on every rank, a batch of ' // &
+             'products dealt out to the ranks (default auto: small FFT boxes on several ranks)'), &
     option_t('solve_apart', '', switch, 'solve the motions one KSPSolve after another (KSP monitors apply) ' // &
              'instead of together'), &
     option_t('solve_undeflated', '', switch, 'solve the motions together without their coarse space (the ' // &
@@ -228,6 +230,8 @@ contains
         job%fft_planner = value
       case ('fft_whole_box')
         job%fft_mirror_classes = .false.
+      case ('replicate_products')
+        job%replicate_products = value
       case ('solve_apart')
         job%solve_apart = .true.
       case ('solve_undeflated')

@@ -92,7 +92,7 @@ contains
     if (e%operator_name == 'fft' .or. e%operator_name == 'pfft') then
       write (*, '(a)') '  operator:             ' // trim(e%operator_name) // ', padded box ' // str(e%fft_box(1)) // ' x ' // str(e%fft_box(2)) // &
         ' x ' // str(e%fft_box(3)) // trim(merge(' by mirror class', '                ', e%by_mirror_class)) // &
-        ' (at most ' // str(e%frequency_lines) // ' ranks hold frequencies, more ranks do not pay)'
+        trim(replication_text(e))
     else
       write (*, '(a)') '  operator:             ' // trim(e%operator_name)
     end if
@@ -122,6 +122,18 @@ contains
   end function breakdown
 
   !> What the estimate's kernel term holds for each operator.
+  !> How the products share the ranks: the box's frequencies split over them, or the operator
+  !> whole on each (replicated_operator.F90).
+  pure function replication_text(e) result(text)
+    type(job_estimate_t), intent(in) :: e
+    character(len=:), allocatable :: text
+    if (e%replicated) then
+      text = ', whole on every rank (a batch of products dealt out to the ranks)'
+    else
+      text = ' (at most ' // str(e%frequency_lines) // ' ranks hold frequencies, more ranks do not pay)'
+    end if
+  end function replication_text
+
   pure function kernel_name(operator_name) result(text)
     character(len=*), intent(in) :: operator_name
     character(len=:), allocatable :: text

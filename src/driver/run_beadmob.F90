@@ -301,7 +301,8 @@ contains
     if (config%hydrodynamics%shell_layers > 0) write (*, '(a)') '  shell model: ' // str(job_result%hydrodynamic_beads) // &
       ' beads within ' // str(config%hydrodynamics%shell_layers) // ' layer(s) of the surface'
     write (*, '(a)') '  operator: ' // trim(job_result%operator_name) // &
-      trim(merge(' (by mirror class)', '                  ', job_result%by_mirror_class)) // ', Krylov method ' // &
+      trim(merge(' (by mirror class)', '                  ', job_result%by_mirror_class)) // &
+      trim(merge(' (whole on every rank)', '                      ', job_result%replicated_products)) // ', Krylov method ' // &
       trim(job_result%solves%ksp_type) // ', preconditioner ' // trim(job_result%solves%pc_type)
     write (*, '(a, 6i5)') '  Krylov iterations: ', job_result%solves%iterations
     if (any(job_result%solves%resumed == 1)) write (*, '(a)') '  resumed ' // str(count(job_result%solves%resumed == 1)) // &

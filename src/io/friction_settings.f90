@@ -68,6 +68,10 @@ module beadmob_friction_settings
     !> The FFT operator's products by mirror class where the bead set has two lattice mirror
     !> planes (fft_operator.F90); false (-fft_whole_box): always on the whole padded box
     logical :: fft_mirror_classes = .true.
+    !> Products on the whole operator of every rank, a batch dealt out to the ranks
+    !> (replicated_operator.F90): 'yes', 'no' or 'auto' (the FFT operator of a small box on
+    !> several ranks, job_plan.f90's choose_replication)
+    character(len=8) :: replicate_products = 'auto'
     !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
     !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
     logical :: solve_apart = .false.

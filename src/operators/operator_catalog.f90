@@ -6,16 +6,29 @@ module beadmob_operator_catalog
   use beadmob_fft_operator, only: fft_operator_t
   use beadmob_pfft_operator, only: pfft_operator_t
   use beadmob_dense_operator, only: dense_operator_t
+  use beadmob_replicated_operator, only: replicated_operator_t
   implicit none
   private
   public :: new_operator
 
 contains
 
-  !> An operator of the kind `name` ('direct', 'fft', 'pfft' or 'dense'; a checked name), not yet created.
-  subroutine new_operator(name, op)
+  !> An operator of the kind `name` ('direct', 'fft', 'pfft' or 'dense'; a checked name), not yet
+  !> created; with `replicated`, that operator whole on every rank (replicated_operator.F90).
+  recursive subroutine new_operator(name, op, replicated)
     character(len=*), intent(in) :: name
     class(multipole_operator_t), allocatable, intent(out) :: op
+    logical, intent(in), optional :: replicated
+    if (present(replicated)) then
+      if (replicated) then
+        allocate (replicated_operator_t :: op)
+        select type (op)
+        type is (replicated_operator_t)
+          call new_operator(name, op%inner)
+        end select
+        return
+      end if
+    end if
     select case (name)
     case ('fft')
       allocate (fft_operator_t :: op)

@@ -243,6 +243,7 @@ contains
     call write_attribute(group, 'cache_file', trim(job_result%cache_file), err)
     call write_attribute(group, 'fft_plans_from_wisdom', merge(1, 0, job_result%plans_from_wisdom), err)
     call write_attribute(group, 'fft_by_mirror_class', merge(1, 0, job_result%by_mirror_class), err)
+    call write_attribute(group, 'replicated_products', merge(1, 0, job_result%replicated_products), err)
     names = trim(phase_names(1))
     do k = 2, size(phase_names)
       names = names // ' ' // trim(phase_names(k))

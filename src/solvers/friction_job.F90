@@ -58,6 +58,7 @@ module beadmob_friction_job
     integer :: planned_solves = 0
     real(dp) :: estimated_peak_memory_bytes = 0.0_dp, estimated_seconds = 0.0_dp
     character(len=16) :: operator_name = ''        ! the operator used: direct, fft, pfft or dense
+    logical :: replicated_products = .false.       ! whole on every rank (replicated_operator.F90)
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
     integer :: pfft_stencil = 0                    ! the pfft operator's (0: another operator)
@@ -123,7 +124,7 @@ contains
     if (plan%body_frame) call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // &
       str(plan%n_solves) // ' solves for the six motions (' // str(plan%lab_solves) // ' in the model''s coordinates)')
     call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, &
-                           plan%symmetry_group, job_result, err)
+                           plan%replicated_products, plan%symmetry_group, job_result, err)
     job_result%planned_solves = plan%n_solves
     job_result%estimated_peak_memory_bytes = plan%estimate%peak
     job_result%estimated_seconds = plan%estimate%seconds_total
@@ -150,11 +151,13 @@ contains
 
   !> Collective. The friction job on the bead set `centres` (all beads in the solve) with the
   !> operator and the symmetry group (about reference_point) the plan found.
-  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, symmetry_group, job_result, err)
+  subroutine friction_of_beads(ctx, settings, centres, reference_point, operator_name, replicated, symmetry_group, &
+                               job_result, err)
     type(run_context_t), intent(in) :: ctx
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :), reference_point(3)
     character(len=*), intent(in) :: operator_name
+    logical, intent(in) :: replicated   ! the operator whole on every rank (replicated_operator.F90)
     logical, intent(in) :: symmetry_group(:)
     type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
@@ -211,7 +214,8 @@ contains
     options%pfft_stencil = settings%pfft_stencil
     options%pfft_near_radius = settings%pfft_near_radius
     if (with_companion) options%companion_unknowns = companion_unknowns(basis)
-    call new_operator(job_result%operator_name, op)
+    call new_operator(job_result%operator_name, op, replicated)
+    job_result%replicated_products = replicated
     own_near_field = .false.
     solver_made = .false.
     ! Every failure leaves the block through one exit below (the operator released, the phase's

@@ -38,6 +38,7 @@ module beadmob_job_estimate
     integer :: fft_box(3) = 0                 ! padded box (slow axis last); 0 without an FFT
     integer :: frequency_lines = 0            ! spectrum lines split over the ranks
     logical :: by_mirror_class = .false.      ! FFT products by mirror class
+    logical :: replicated = .false.           ! the operator whole on every rank (replicated_operator.F90)
     integer(i8) :: canonical_blocks = 0       ! blocks by quadrature (lattice models)
     !> Per rank, largest rank (bytes)
     real(dp) :: base = 0, geometry = 0, blocks = 0, kernel = 0, fft_buffer = 0, transposes = 0, vectors = 0, peak = 0
@@ -57,7 +58,7 @@ contains
   !> Memory per rank: base + geometry N + what the operator holds + the largest of its set-up's
   !> transient need, the vectors and the companion (its operator, vectors and start).
   function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                        n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors) result(e)
+                        n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors, replicated) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
     logical, intent(in) :: shell, companion
@@ -66,11 +67,14 @@ contains
     character(len=*), intent(in) :: operator_name
     real(dp), intent(in), optional :: near_radius
     logical, intent(in), optional :: mirrors(3)   ! lattice axes along which the solve beads are symmetric
+    !> The operator whole on every rank: its cost on one rank, each rank multiplying its share of
+    !> a batch, ceil(n_solves / P) of the n_solves vectors, with their whole copies
+    logical, intent(in), optional :: replicated
     type(job_estimate_t) :: e
     class(multipole_operator_t), allocatable :: op
     type(job_size_t) :: size
     type(operator_cost_t) :: cost
-    real(dp) :: products, low_products
+    real(dp) :: products, low_products, share
 
     e%n_beads = n_beads
     e%solve_beads = solve_beads
@@ -90,12 +94,24 @@ contains
     size%on_lattice = on_lattice
     if (present(near_radius)) size%near_radius = near_radius
     if (present(mirrors)) size%mirrors = mirrors
+    if (present(replicated)) e%replicated = replicated .and. e%n_ranks > 1
+    if (e%replicated) then
+      size%n_ranks = 1
+      size%local_beads = real(solve_beads, dp)
+    end if
     call new_operator(operator_name, op)
     call op%cost(size, cost)
+    if (e%replicated) then
+      share = real((n_solves + e%n_ranks - 1) / e%n_ranks, dp) / max(n_solves, 1)
+      cost%seconds_product = cost%seconds_product * share
+      cost%seconds_low_product = cost%seconds_low_product * share
+      size%local_beads = real((solve_beads + e%n_ranks - 1) / e%n_ranks, dp)
+    end if
 
     e%base = base_bytes
     e%geometry = geometry_bytes_per_bead * n_beads
     e%vectors = vectors_per_unknown * 8 * size%local_beads * size%nb
+    if (e%replicated) e%vectors = e%vectors + 2 * 8 * share * n_solves * real(solve_beads, dp) * size%nb
     e%canonical_blocks = cost%canonical_blocks
     e%fft_box = cost%fft_box
     e%frequency_lines = cost%frequency_lines

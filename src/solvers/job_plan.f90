@@ -22,6 +22,9 @@ module beadmob_job_plan
   private
   public :: job_plan_t, make_job_plan, choose_operator
 
+  !> Padded FFT boxes of at most this many sites get replicated products under 'auto'
+  !> (choose_replication).
+  real(dp), parameter :: replicate_max_sites = 6.5e4_dp
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8
 
@@ -44,6 +47,9 @@ module beadmob_job_plan
                                            [3, 3])
     !> direct, fft, pfft or dense
     character(len=16) :: operator_name = ''
+    !> The operator whole on every rank, batches of products dealt out to the ranks
+    !> (replicated_operator.F90; choose_replication)
+    logical :: replicated_products = .false.
     !> Krylov solves of the job: the requested motions less those its symmetries give (none are
     !> looked for with use_symmetry off or the dense operator, whose solve is exact); and the
     !> count in the model's own coordinates (equal unless body_frame)
@@ -79,6 +85,8 @@ contains
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
     else if (settings%stop_after_solves < 0) then
       call raise(err, '-stop_after_solves needs a number of solves >= 1')
+    else if (all(settings%replicate_products /= [character(len=8) :: 'yes', 'no', 'auto'])) then
+      call raise(err, "-replicate_products must be 'yes', 'no' or 'auto', got '" // trim(settings%replicate_products) // "'")
     else if (all(settings%fft_planner /= [character(len=8) :: 'measure', 'estimate', 'auto'])) then
       call raise(err, "-fft_planner must be 'measure', 'estimate' or 'auto', got '" // trim(settings%fft_planner) // "'")
     end if
@@ -133,11 +141,47 @@ contains
       lattice = nint(plan%solve_centres - spread(minval(plan%solve_centres, dim=2), 2, size(plan%solve_centres, 2)))
       mirrors = lattice_mirrors(lattice, maxval(lattice, dim=2))
     end if
+    call choose_replication(settings%replicate_products, count(mirrors) >= 2, plan, err)
+    if (err%failed) return
     plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
-                                 settings%pfft_near_radius, mirrors)
+                                 settings%pfft_near_radius, mirrors, plan%replicated_products)
   end subroutine make_job_plan
+
+  !> plan%replicated_products: 'yes' for any operator but the dense one (assembled and factorised
+  !> as a whole already), 'no', or 'auto': the FFT operator of a lattice model on several ranks,
+  !> with at least one solve per rank, products on the whole box (no mirror classes) and a padded
+  !> box of at most replicate_max_sites sites. Such a box's distributed product spends more in its
+  !> transposes and short passes than each rank gains from its share, and its set-up costs about
+  !> as much on one rank as on several; a larger box, or a class product on a quarter of it, is
+  !> as fast or faster distributed, where the ranks share the streaming of the kernel
+  !> (bench/side_by_side/replicated_products.md).
+  subroutine choose_replication(requested, by_mirror_class, plan, err)
+    character(len=*), intent(in) :: requested
+    logical, intent(in) :: by_mirror_class
+    type(job_plan_t), intent(inout) :: plan
+    type(error_t), intent(inout) :: err
+    real(dp) :: sites
+    integer :: axis
+    select case (trim(requested))
+    case ('yes')
+      plan%replicated_products = plan%n_ranks > 1
+      if (plan%operator_name == 'dense') call raise(err, '-replicate_products yes needs the direct, fft or pfft ' // &
+                                                    'operator; the dense operator is factorised whole already')
+    case ('auto')
+      plan%replicated_products = .false.
+      if (plan%operator_name /= 'fft' .or. plan%n_ranks == 1 .or. by_mirror_class .or. &
+          plan%n_solves < plan%n_ranks) return
+      sites = 1.0_dp
+      do axis = 1, 3
+        sites = sites * fft_size(2 * nint(maxval(plan%solve_centres(axis, :)) - minval(plan%solve_centres(axis, :))) + 1)
+      end do
+      plan%replicated_products = sites <= replicate_max_sites
+    case default
+      plan%replicated_products = .false.
+    end select
+  end subroutine choose_replication
 
   !> The pfft grid's span along one axis: the beads' extent and a stencil's width.
   pure integer function pfft_span(coordinates, stencil)
