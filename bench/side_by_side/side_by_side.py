@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""side_by_side.py --a "OPTIONS" --b "OPTIONS" --out FILE [--title T] [--exe BUILD/beadmob] [--repeats 3]:
+"""side_by_side.py --a "OPTIONS" --b "OPTIONS" --out FILE [--title T] [--exe BUILD/beadmob] [--repeats 3]
+[--ranks 2] [--random 1000] [--random-only]:
 two sets of command-line options of one build, side by side on the lattice jobs of issue 24.
 
-Each job runs with options A and options B in alternation (both see the same machine), 2 ranks,
+Each job runs with options A and options B in alternation (both see the same machine), on `--ranks`
+ranks (oversubscribed beyond the cores),
 `--repeats` times, no table cache (BEADMOB_CACHE unset). From each result file: the blocks phase
 (the operator's set-up, FFT plans included), the solve and companion phases, the job (`total`)
 and the time per operator product of the order-L solve (its phase over its products: every CG
@@ -30,15 +32,14 @@ from everyday_jobs import write_beads  # noqa: E402
 from eden_body import eden_body  # noqa: E402
 import solver_promise  # noqa: E402
 
-RANKS = 2
 ENV = {k: v for k, v in os.environ.items() if k != "BEADMOB_CACHE"}
 ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_pml=ENV.get("OMPI_MCA_pml", "ob1"))
 
 
-def run(exe, nml, options, workdir):
+def run(exe, nml, options, workdir, ranks):
     for old in Path(workdir).glob("*.h5"):
         old.unlink()
-    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-quiet", *options], cwd=workdir, env=ENV, check=True,
+    subprocess.run(["mpiexec", "--oversubscribe", "-n", str(ranks), exe, str(nml), "-quiet", *options], cwd=workdir, env=ENV, check=True,
                    stdout=subprocess.DEVNULL)
     (result,) = list(Path(workdir).glob("*.h5"))
     with h5py.File(result) as f:
@@ -70,32 +71,38 @@ def main():
     parser.add_argument("--out", required=True)
     parser.add_argument("--title", default="")
     parser.add_argument("--note", default="", help="a paragraph written below the table")
+    parser.add_argument("--ranks", type=int, default=2)
+    parser.add_argument("--random", default="1000", help="bead counts of the random (Eden) bodies, comma-separated")
+    parser.add_argument("--random-only", action="store_true", help="only the random bodies")
     args = parser.parse_args()
     exe = os.path.abspath(args.exe)
     sets = {"A": shlex.split(args.a), "B": shlex.split(args.b)}
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
-        write_beads(work / "random_1000.txt", eden_body(1000))
-        (work / "random_1000.nml").write_text("&run output = 'random_1000.h5' /\n"
-                                              "&shape name = 'bead_file', file = 'random_1000.txt' /\n&hydrodynamics /\n")
+        jobs = []
+        for count in [int(n) for n in args.random.split(",")]:
+            write_beads(work / f"random_{count}.txt", eden_body(count))
+            (work / f"random_{count}.nml").write_text(f"&run output = 'random_{count}.h5' /\n&shape name = 'bead_file', "
+                                                      f"file = 'random_{count}.txt' /\n&hydrodynamics /\n")
+            jobs.append((f"random {count} beads", work / f"random_{count}.nml"))
         (work / "sphere_20.nml").write_text("&run output = 'sphere.h5' /\n&shape name = 'sphere', radius = 20 /\n"
                                             "&hydrodynamics /\n")
-        jobs = [("random 1000 beads", work / "random_1000.nml"),
-                ("paper cone (`shapes/cone.nml`)", ROOT / "shapes" / "cone.nml"),
-                ("ring_1mm (`shapes/ring_1mm.nml`)", ROOT / "shapes" / "ring_1mm.nml"),
-                ("sphere of radius 20 (33371 beads)", work / "sphere_20.nml")]
+        if not args.random_only:
+            jobs += [("paper cone (`shapes/cone.nml`)", ROOT / "shapes" / "cone.nml"),
+                     ("ring_1mm (`shapes/ring_1mm.nml`)", ROOT / "shapes" / "ring_1mm.nml"),
+                     ("sphere of radius 20 (33371 beads)", work / "sphere_20.nml")]
         rows = []
         for label, nml in jobs:
             runs = {"A": [], "B": []}
             for _ in range(args.repeats):
                 for key in runs:
-                    runs[key].append(run(exe, nml, sets[key], work))
+                    runs[key].append(run(exe, nml, sets[key], work, args.ranks))
             med = {key: {name: float(np.median([r[name] for r in rs])) for name in
                          ("blocks", "solve", "companion", "total", "product", "memory", "iterations")} for key, rs in runs.items()}
             rows.append((label, med, agreement(runs["A"][-1], runs["B"][-1])))
             print(label, med, flush=True)
     lines = [f"# {args.title or 'Side by side'}", "",
-             f"Written by `bench/side_by_side/side_by_side.py`: {RANKS} ranks, medians of {args.repeats} runs of "
+             f"Written by `bench/side_by_side/side_by_side.py`: {args.ranks} ranks, medians of {args.repeats} runs of "
              f"each option set in alternation, no table cache. A: `{args.a}`; B: `{args.b}`. Phases in seconds "
              "(`blocks`: the operator's set-up, FFT plans included); `product`: the order-L solve phase over its "
              "operator products; `iterations`: the Krylov iterations of the solves and the companion's, summed over the motions; `agree`: the largest friction difference of the last pair over what the solver "

@@ -1,4 +1,4 @@
-!> Whole products on every rank, for jobs whose FFT box is small (docs/theory.md T16, "Products
+!> Whole products on every rank, for jobs whose FFT box is small (docs/theory.md T6, "Products
 !> of a batch on whole operators"). The operator of all beads is built on every rank alone
 !> (PETSC_COMM_SELF); a batch of vectors is dealt out to the ranks, vector j to rank
 !> mod(j - 1, P), and each rank multiplies its vectors whole, with no transposes between ranks:

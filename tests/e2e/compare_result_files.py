@@ -18,9 +18,10 @@ import numpy as np
 
 from solver_promise import bound, entry_scale
 
-#: Of this run: its date, ranks, timings and memory, and the plan's estimate, which is per rank.
+#: Of this run: its date, ranks, timings and memory, the plan's estimate, which is per rank, and
+#: whether the ranks shared the products or each had the whole operator (the same products).
 RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes",
-                "estimated_peak_memory_bytes", "estimated_seconds"}
+                "estimated_peak_memory_bytes", "estimated_seconds", "replicated_products"}
 #: Each run's record of its own solve: compared only through the bounds they give.
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction", "companion_iterations",
