@@ -24,7 +24,7 @@ python3 "$here/side_by_side.py" --exe "$exe" --a "-replicate_products no" --b "-
   --title "Products distributed over the ranks (A) against the operator whole on every rank, a batch dealt out (B)" \
   --note "B's products are the same arithmetic on one rank (agree: rounding). \`-replicate_products auto\` takes B for \
 the FFT operator of a padded box of at most 6.5e4 sites without mirror classes: the random 300- and 1000-bead bodies \
-(boxes 20 x 20 x 25 and 27 x 32 x 40); not the random 3000 (42 x 45 x 45, 8.5e4 sites), the paper cone and ring_1mm (mirror \
+(boxes 20 x 20 x 25 and 27 x 32 x 40) on 2 or 3 ranks; not the random 3000 (42 x 45 x 45, 8.5e4 sites), the paper cone and ring_1mm (mirror \
 classes) nor the sphere (both)." \
   --out "$here/replicated_products.md"
 python3 "$here/side_by_side.py" --exe "$exe" --a "-replicate_products no" --b "-replicate_products yes" \

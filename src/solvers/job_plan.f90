@@ -151,7 +151,8 @@ contains
 
   !> plan%replicated_products: 'yes' for any operator but the dense one (assembled and factorised
   !> as a whole already), 'no', or 'auto': the FFT operator of a lattice model on several ranks,
-  !> with at least one solve per rank, products on the whole box (no mirror classes) and a padded
+  !> with at least two solves per rank (a batch of six dealt out to 4 ranks, 2, 2, 1 and 1, was
+  !> slower than distributed), products on the whole box (no mirror classes) and a padded
   !> box of at most replicate_max_sites sites. Such a box's distributed product spends more in its
   !> transposes and short passes than each rank gains from its share, and its set-up costs about
   !> as much on one rank as on several; a larger box, or a class product on a quarter of it, is
@@ -172,7 +173,7 @@ contains
     case ('auto')
       plan%replicated_products = .false.
       if (plan%operator_name /= 'fft' .or. plan%n_ranks == 1 .or. by_mirror_class .or. &
-          plan%n_solves < plan%n_ranks) return
+          plan%n_solves < 2 * plan%n_ranks) return
       sites = 1.0_dp
       do axis = 1, 3
         sites = sites * fft_size(2 * nint(maxval(plan%solve_centres(axis, :)) - minval(plan%solve_centres(axis, :))) + 1)
