@@ -20,7 +20,7 @@ module beadmob_lockstep_cg
   use beadmob_deflation_space, only: deflation_space_t, deflate_start, project_directions
   implicit none
   private
-  public :: krylov_limits_t, solve_lockstep, finished_interface
+  public :: krylov_limits_t, solve_lockstep, finished_interface, finishing_interface
 
   !> KSP's tolerances (KSPGetTolerances).
   type :: krylov_limits_t
@@ -38,6 +38,12 @@ module beadmob_lockstep_cg
       real(dp), intent(in) :: largest, smallest
       logical, intent(inout) :: stop
     end subroutine finished_interface
+    !> Collective: the systems js converge in this iteration (their x final), before `finished`
+    !> is called for each: what the caller does with all of them (their true residuals, one
+    !> batched product) it can do here at once.
+    subroutine finishing_interface(js)
+      integer, intent(in) :: js(:)
+    end subroutine finishing_interface
   end interface
 
   !> Lanczos coefficients kept per system at most (the eigenvalue estimate then uses the first).
@@ -48,11 +54,12 @@ contains
   !> Collective. Solves A x_j = b_j (A: op's product, B: the preconditioner pc, which must be SPD)
   !> for every j, from x_j as given when nonzero_guess, else from zero; `finished` is called for
   !> each system as it stops, in the order they stop (several in one iteration: ascending j).
-  !> stopped: a call of `finished` asked to stop. With `deflation` (deflation_space.F90) every
+  !> stopped: a call of `finished` asked to stop. `finishing`, if given, is called first with all
+  !> the systems that converge in one iteration. With `deflation` (deflation_space.F90) every
   !> system is deflated by its coarse space: the start x + Z E^+ Z^T r, the search directions
   !> A-orthogonal to Z, and the extreme eigenvalues reported those of the Lanczos coefficients and
   !> of the coarse space together.
-  subroutine solve_lockstep(op, pc, b, x, nonzero_guess, limits, finished, stopped, deflation)
+  subroutine solve_lockstep(op, pc, b, x, nonzero_guess, limits, finished, stopped, deflation, finishing)
     class(multipole_operator_t), intent(inout) :: op
     PC, intent(in) :: pc
     Vec, intent(in) :: b(:), x(:)
@@ -61,6 +68,7 @@ contains
     procedure(finished_interface) :: finished
     logical, intent(out) :: stopped
     type(deflation_space_t), intent(in), optional :: deflation
+    procedure(finishing_interface), optional :: finishing
     Vec :: r(size(b)), z(size(b)), p(size(b)), w(size(b))
     real(dp), dimension(size(b)) :: norm, beta, beta_old, step, curvature, curvature_old, scale, tolerance, norm0
     real(dp), allocatable :: diagonal(:, :), off_diagonal(:, :)
@@ -186,6 +194,9 @@ contains
     subroutine test(iteration)
       integer, intent(in) :: iteration
       integer :: k
+      logical :: converging(n)
+      converging = running .and. ieee_is_finite(norm) .and. norm <= tolerance
+      if (present(finishing) .and. any(converging)) call finishing(pack([(k, k = 1, n)], converging))
       do k = 1, n
         if (.not. running(k)) cycle
         iterations(k) = iteration

@@ -254,6 +254,7 @@ contains
     type(solve_statistics_t), intent(out) :: stats
     type(error_t), intent(inout) :: err
     logical :: computed(6), stopped, coupled(6, 6)
+    logical :: product_ready(6)   ! residual(m) holds A q_m already (residual_products)
     logical, allocatable :: in_coarse_space(:)
     type(deflation_space_t) :: coarse_space
     real(dp) :: started, elapsed, solve_seconds
@@ -271,6 +272,7 @@ contains
     integer :: motion, other, nb
 
     nb = solver%nb
+    product_ready = .false.
     if (allocated(solver%initial_guess)) then
       PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, PETSC_TRUE, ierr))
     end if
@@ -349,7 +351,7 @@ contains
       call make_deflation_space(solver%op, solver%pc, rhs(to_solve), in_coarse_space, coarse_space)
       stats%deflation_vectors = coarse_space%size
       call solve_lockstep(solver%op, solver%pc, rhs(to_solve), solution(to_solve), allocated(solver%initial_guess), &
-                          solver%limits, finished_together, stopped, coarse_space)
+                          solver%limits, finished_together, stopped, coarse_space, converging_together)
       call destroy_deflation_space(coarse_space)
     else
       do k = 1, size(to_solve)
@@ -364,10 +366,14 @@ contains
     end if
     if (stopped) return
 
-    ! Derived, not solved; each true residual checks it like a solved one.
+    ! Derived, not solved; each true residual checks it like a solved one (their products at once).
     do motion = 1, 6
       if (stats%source(motion) <= 0) cycle
       call derive_solution(solver%symmetry, motion, solution(stats%source(motion)), solution(motion))
+    end do
+    call residual_products(pack([(motion, motion=1, 6)], stats%source > 0))
+    do motion = 1, 6
+      if (stats%source(motion) <= 0) cycle
       stats%iterations(motion) = 0
       stats%converged_reason(motion) = stats%converged_reason(stats%source(motion))
       call true_residual(motion)
@@ -397,6 +403,20 @@ contains
     stats%solved_together = merge(1, 0, size(to_solve) > 0 .and. solver%together)
 
   contains
+
+    !> solve_lockstep's systems ks converge together: their true residuals' products in one batch.
+    subroutine converging_together(ks)
+      integer, intent(in) :: ks(:)
+      call residual_products(to_solve(ks))
+    end subroutine converging_together
+
+    !> residual(m) = A q_m for the motions ms, one batched product; true_residual uses them.
+    subroutine residual_products(ms)
+      integer, intent(in) :: ms(:)
+      if (size(ms) == 0) return
+      call solver%op%apply_many(solver%solution(ms), solver%residual(ms))
+      product_ready(ms) = .true.
+    end subroutine residual_products
 
     !> solve_lockstep's report of system k (motion to_solve(k)).
     subroutine finished_together(k, its, why, largest, smallest, stop)
@@ -442,7 +462,10 @@ contains
     !> the true residual, independent of the preconditioned norm KSP monitors.
     subroutine true_residual(m)
       integer, intent(in) :: m
-      PetscCallA(MatMult(solver%matrix, solver%solution(m), solver%residual(m), ierr))
+      if (.not. product_ready(m)) then
+        PetscCallA(MatMult(solver%matrix, solver%solution(m), solver%residual(m), ierr))
+      end if
+      product_ready(m) = .false.
       PetscCallA(VecAYPX(solver%residual(m), -1.0_dp, solver%rhs(m), ierr))
       PetscCallA(VecNorm(solver%residual(m), NORM_2, residual_norm, ierr))
       PetscCallA(VecNorm(solver%rhs(m), NORM_2, rhs_norm, ierr))
