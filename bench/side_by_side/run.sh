@@ -17,15 +17,15 @@ python3 "$here/side_by_side.py" --exe "$exe" --a "-fft_planner estimate" --b "-f
   --note "The paper cone and the sphere make no coarse space (their symmetry keeps the solved motions apart: the \
 same iterations in A and B), so their two columns run the same code: their differences are the machine's noise." \
   --out "$here/deflation.md"
-#   replicated_products.md        the operator distributed (A) or whole on every rank (B), 2 ranks;
+#   replicated_products.md        the operator distributed (A) or whole on every rank (B), 2 ranks
+#                                 (replicated_products_busy_day.md: the same on another day);
 #   replicated_products_4ranks.md the random bodies on 4 ranks (oversubscribed on 2 cores)
 python3 "$here/side_by_side.py" --exe "$exe" --a "-replicate_products no" --b "-replicate_products yes" \
   --random 300,1000,3000 --repeats 5 \
   --title "Products distributed over the ranks (A) against the operator whole on every rank, a batch dealt out (B)" \
-  --note "B's products are the same arithmetic on one rank (agree: rounding). \`-replicate_products auto\` takes B for \
-the FFT operator of a padded box of at most 6.5e4 sites without mirror classes: the random 300- and 1000-bead bodies \
-(boxes 20 x 20 x 25 and 27 x 32 x 40) on 2 or 3 ranks; not the random 3000 (42 x 45 x 45, 8.5e4 sites), the paper cone and ring_1mm (mirror \
-classes) nor the sphere (both)." \
+  --note "B's products are the same arithmetic on one rank (agree: rounding). Not the default: it pays on no row \
+reliably here (replicated_products_busy_day.md, the same comparison on a busier day of the machine: the random 1000 \
+job 0.93)." \
   --out "$here/replicated_products.md"
 python3 "$here/side_by_side.py" --exe "$exe" --a "-replicate_products no" --b "-replicate_products yes" \
   --random 1000,3000 --random-only --ranks 4 --repeats 5 \

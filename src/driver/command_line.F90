@@ -40,8 +40,8 @@ module beadmob_command_line
              '(reproducible) or auto (default: measured when remembered with a table cache)'), &
     option_t('fft_whole_box', '', switch, 'FFT products on the whole padded box, not by mirror class of a ' // &
              'symmetric bead set (a comparison)'), &
-    option_t('replicate_products', 'auto|yes|no', word, 'the operator whole on every rank, a batch of ' // &
-             'products dealt out to the ranks (default auto: small FFT boxes on several ranks)'), &
+    option_t('replicate_products', 'yes|no', word, 'the operator whole on every rank, a batch of products ' // &
+             'dealt out to the ranks (default no; for small boxes on many ranks)'), &
     option_t('solve_apart', '', switch, 'solve the motions one KSPSolve after another (KSP monitors apply) ' // &
              'instead of together'), &
     option_t('solve_undeflated', '', switch, 'solve the motions together without their coarse space (the ' // &

@@ -69,9 +69,9 @@ module beadmob_friction_settings
     !> planes (fft_operator.F90); false (-fft_whole_box): always on the whole padded box
     logical :: fft_mirror_classes = .true.
     !> Products on the whole operator of every rank, a batch dealt out to the ranks
-    !> (replicated_operator.F90): 'yes', 'no' or 'auto' (the FFT operator of a small box on
-    !> several ranks, job_plan.f90's choose_replication)
-    character(len=8) :: replicate_products = 'auto'
+    !> (replicated_operator.F90): 'yes' or 'no' (job_plan.f90's choose_replication says why not
+    !> by default)
+    character(len=8) :: replicate_products = 'no'
     !> Solve the motions one KSPSolve after another (KSP's monitors and every Krylov option then
     !> apply) instead of together (lockstep_cg.F90, when the Krylov method is CG)
     logical :: solve_apart = .false.

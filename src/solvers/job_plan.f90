@@ -22,9 +22,6 @@ module beadmob_job_plan
   private
   public :: job_plan_t, make_job_plan, choose_operator
 
-  !> Padded FFT boxes of at most this many sites get replicated products under 'auto'
-  !> (choose_replication).
-  real(dp), parameter :: replicate_max_sites = 6.5e4_dp
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8
 
@@ -85,8 +82,8 @@ contains
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
     else if (settings%stop_after_solves < 0) then
       call raise(err, '-stop_after_solves needs a number of solves >= 1')
-    else if (all(settings%replicate_products /= [character(len=8) :: 'yes', 'no', 'auto'])) then
-      call raise(err, "-replicate_products must be 'yes', 'no' or 'auto', got '" // trim(settings%replicate_products) // "'")
+    else if (all(settings%replicate_products /= [character(len=8) :: 'yes', 'no'])) then
+      call raise(err, "-replicate_products must be 'yes' or 'no', got '" // trim(settings%replicate_products) // "'")
     else if (all(settings%fft_planner /= [character(len=8) :: 'measure', 'estimate', 'auto'])) then
       call raise(err, "-fft_planner must be 'measure', 'estimate' or 'auto', got '" // trim(settings%fft_planner) // "'")
     end if
@@ -141,7 +138,7 @@ contains
       lattice = nint(plan%solve_centres - spread(minval(plan%solve_centres, dim=2), 2, size(plan%solve_centres, 2)))
       mirrors = lattice_mirrors(lattice, maxval(lattice, dim=2))
     end if
-    call choose_replication(settings%replicate_products, count(mirrors) >= 2, plan, err)
+    call choose_replication(settings%replicate_products, plan, err)
     if (err%failed) return
     plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
@@ -149,39 +146,21 @@ contains
                                  settings%pfft_near_radius, mirrors, plan%replicated_products)
   end subroutine make_job_plan
 
-  !> plan%replicated_products: 'yes' for any operator but the dense one (assembled and factorised
-  !> as a whole already), 'no', or 'auto': the FFT operator of a lattice model on several ranks,
-  !> with at least two solves per rank (a batch of six dealt out to 4 ranks, 2, 2, 1 and 1, was
-  !> slower than distributed), products on the whole box (no mirror classes) and a padded
-  !> box of at most replicate_max_sites sites. Such a box's distributed product spends more in its
-  !> transposes and short passes than each rank gains from its share, and its set-up costs about
-  !> as much on one rank as on several; a larger box, or a class product on a quarter of it, is
-  !> as fast or faster distributed, where the ranks share the streaming of the kernel
-  !> (bench/side_by_side/replicated_products.md).
-  subroutine choose_replication(requested, by_mirror_class, plan, err)
+  !> plan%replicated_products: asked for ('yes'), on several ranks, for any operator but the dense
+  !> one (assembled and factorised as a whole already). Not by default: on this project's 2-core
+  !> machine it made the random 1000-bead body's job 7 % faster on a busy day and no faster on a
+  !> quiet one, where the distributed product already runs at about 92 % of two whole products,
+  !> and it was slower on larger boxes, class products and 4 oversubscribed ranks
+  !> (bench/side_by_side/replicated_products.md); it is for more ranks than a small box's
+  !> frequency lines, or ranks on several nodes, where transposes cost more.
+  subroutine choose_replication(requested, plan, err)
     character(len=*), intent(in) :: requested
-    logical, intent(in) :: by_mirror_class
     type(job_plan_t), intent(inout) :: plan
     type(error_t), intent(inout) :: err
-    real(dp) :: sites
-    integer :: axis
-    select case (trim(requested))
-    case ('yes')
-      plan%replicated_products = plan%n_ranks > 1
-      if (plan%operator_name == 'dense') call raise(err, '-replicate_products yes needs the direct, fft or pfft ' // &
-                                                    'operator; the dense operator is factorised whole already')
-    case ('auto')
-      plan%replicated_products = .false.
-      if (plan%operator_name /= 'fft' .or. plan%n_ranks == 1 .or. by_mirror_class .or. &
-          plan%n_solves < 2 * plan%n_ranks) return
-      sites = 1.0_dp
-      do axis = 1, 3
-        sites = sites * fft_size(2 * nint(maxval(plan%solve_centres(axis, :)) - minval(plan%solve_centres(axis, :))) + 1)
-      end do
-      plan%replicated_products = sites <= replicate_max_sites
-    case default
-      plan%replicated_products = .false.
-    end select
+    plan%replicated_products = requested == 'yes' .and. plan%n_ranks > 1
+    if (requested == 'yes' .and. plan%operator_name == 'dense') &
+      call raise(err, '-replicate_products yes needs the direct, fft or pfft operator; the dense operator is ' // &
+                 'factorised whole already')
   end subroutine choose_replication
 
   !> The pfft grid's span along one axis: the beads' extent and a stencil's width.
