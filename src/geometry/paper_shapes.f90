@@ -190,7 +190,8 @@ contains
     real(dp), intent(in), optional :: offset(3)   ! of the lattice against the body, output frame
     real(dp), allocatable :: buffer(:, :)
     real(dp) :: gap, dist2, theta_star, off_gap, r2_max, rho, shift(3), x, y, z
-    integer :: n_x, n_y, n_z, i, j, k, count, widen
+    real(dp) :: samples(2, 0:ellipse_samples - 1)
+    integer :: n_x, n_y, n_z, i, j, k, count, widen, m
 
     allocate (centres(3, 0))
     if (.not. positive_size(semi_major, 'open_ring: semi_major', err)) return
@@ -221,6 +222,11 @@ contains
     widen = merge(1, 0, any(shift /= 0.0_dp))
     call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1] + 2 * widen, 'open_ring', buffer, err)
     if (err%failed) return
+    ! The ellipse's sample points, once for all lattice points (the same numbers as evaluated per point).
+    do m = 0, ellipse_samples - 1
+      samples(:, m) = [semi_major * cos(m * (2.0_dp * pi / ellipse_samples)), &
+                       semi_minor * sin(m * (2.0_dp * pi / ellipse_samples))]
+    end do
     count = 0
     do j = -n_y - widen, n_y + widen
       y = j + shift(3)
@@ -229,7 +235,7 @@ contains
         ! cheap rejection: every ellipse point has radius in [b, a]
         rho = sqrt(x**2 + y**2)
         if (max(semi_minor - rho, rho - semi_major) >= pipe_radius) cycle
-        call nearest_on_ellipse(semi_major, semi_minor, x, y, dist2, theta_star)
+        call nearest_on_ellipse(semi_major, semi_minor, samples, x, y, dist2, theta_star)
         if (dist2 >= r2_max) cycle
         ! angular distance of theta* from theta_0 = 90 deg, wrapped to [0, pi]
         off_gap = abs(modulo(theta_star - 0.5_dp * pi + pi, 2.0_dp * pi) - pi)
@@ -248,10 +254,11 @@ contains
   end subroutine build_open_ring
 
   !> Squared distance from (px, py) to the ellipse (a cos t, b sin t) and the parameter
-  !> t in [0, 2 pi) of the nearest point: best of ellipse_samples samples, then golden-section
-  !> search on the bracketing interval (appendix "Open Ring": discretised theta).
-  pure subroutine nearest_on_ellipse(a, b, px, py, dist2, theta)
-    real(dp), intent(in) :: a, b, px, py
+  !> t in [0, 2 pi) of the nearest point: best of ellipse_samples samples (`samples`: the points
+  !> (a cos t_m, b sin t_m), t_m = 2 pi m / ellipse_samples), then golden-section search on the
+  !> bracketing interval (appendix "Open Ring": discretised theta).
+  pure subroutine nearest_on_ellipse(a, b, samples, px, py, dist2, theta)
+    real(dp), intent(in) :: a, b, samples(2, 0:ellipse_samples - 1), px, py
     real(dp), intent(out) :: dist2, theta
     real(dp), parameter :: golden = 0.5_dp * (sqrt(5.0_dp) - 1.0_dp)
     real(dp) :: h, t, d, lo, hi, t1, t2, d1, d2
@@ -260,11 +267,10 @@ contains
     dist2 = huge(1.0_dp)
     theta = 0.0_dp
     do m = 0, ellipse_samples - 1
-      t = m * h
-      d = (a * cos(t) - px)**2 + (b * sin(t) - py)**2
+      d = (samples(1, m) - px)**2 + (samples(2, m) - py)**2
       if (d < dist2) then
         dist2 = d
-        theta = t
+        theta = m * h
       end if
     end do
     lo = theta - h
