@@ -121,7 +121,6 @@ contains
            ', vectors ' // gib_text(e%vectors) // either(e%companion > 0, ', companion ' // gib_text(e%companion), '')
   end function breakdown
 
-  !> What the estimate's kernel term holds for each operator.
   !> How the products share the ranks: the box's frequencies split over them, or the operator
   !> whole on each (replicated_operator.F90).
   pure function replication_text(e) result(text)
@@ -134,6 +133,7 @@ contains
     end if
   end function replication_text
 
+  !> What the estimate's kernel term holds for each operator.
   pure function kernel_name(operator_name) result(text)
     character(len=*), intent(in) :: operator_name
     character(len=:), allocatable :: text

@@ -6,7 +6,9 @@
 !> (4 and 3 vectors on 2 ranks, 3, 2 and 2 on 3: uneven shares), and the companion of order 1.
 !> Bead sets: a random compact subset of a 7 x 6 x 5 box (no mirror plane: the whole-box FFT
 !> product) and a 5 x 4 x 3 box (two mirror planes: the inner FFT operator's class products), both
-!> with the FFT operator inside; the random set also with the direct operator inside.
+!> with the FFT operator inside; the random set also with the direct operator inside; and the
+!> random set stretched and jittered off the lattice, the pfft operator replicated against the
+!> distributed pfft operator (the wrapper's claim: the same products).
 !> CTest: np1 (the wrapper on one rank), np2 and np3.
 program test_replicated_operator
 #include "petsc/finclude/petscmat.h"
@@ -20,11 +22,13 @@ program test_replicated_operator
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_catalog, only: new_operator
+  use beadmob_job_defaults, only: default_pfft_stencil, default_pfft_near_radius
   implicit none
   type(test_suite_t) :: suite
   type(run_context_t) :: ctx
   PetscErrorCode :: ierr
-  real(dp), allocatable :: random_set(:, :), box(:, :)
+  real(dp), allocatable :: random_set(:, :), box(:, :), jittered(:, :)
+  integer :: j
 
   PetscCallA(PetscInitialize(ierr))
   suite = start_tests('test_replicated_operator')
@@ -36,6 +40,11 @@ program test_replicated_operator
   call compare(random_set, 'fft', 'random subset of a 7 x 6 x 5 box')
   call compare(box, 'fft', '5 x 4 x 3 box (by mirror class)')
   call compare(random_set, 'direct', 'random subset of a 7 x 6 x 5 box')
+  ! Off the lattice: the replicated pfft operator against the distributed one (the wrapper's
+  ! claim: the same products; the pfft operator's own accuracy is test_offlattice's).
+  jittered = random_set
+  jittered(1, :) = jittered(1, :) * 1.1_dp + 0.03_dp * [(hash_uniform(int(5000 + j, i8)) - 0.5_dp, j = 1, size(jittered, 2))]
+  call compare(jittered, 'pfft', 'the random subset stretched and jittered', 'pfft')
 
   call finish_tests(suite)
   PetscCallA(PetscFinalize(ierr))
@@ -63,11 +72,12 @@ contains
     centres = sites(:, 1:n)
   end function lattice_beads
 
-  !> The replicated `inner` operator against the distributed direct one at L = 2, and their
-  !> companions of order 1.
-  subroutine compare(centres, inner, name)
+  !> The replicated `inner` operator against the distributed `reference` one (default direct) at
+  !> L = 2, and their companions of order 1.
+  subroutine compare(centres, inner, name, reference)
     real(dp), intent(in) :: centres(:, :)
     character(len=*), intent(in) :: inner, name
+    character(len=*), intent(in), optional :: reference
     type(multipole_basis_t) :: basis, low
     class(multipole_operator_t), allocatable, target :: whole, direct, whole_low, direct_low
     type(operator_options_t) :: options
@@ -89,7 +99,13 @@ contains
     options%measure_plans = .false.
     options%cache_file = ''
     call block_range(ctx, size(centres, 2, kind=i8), first, n_mine)
-    call new_operator('direct', direct)
+    options%pfft_stencil = default_pfft_stencil
+    options%pfft_near_radius = default_pfft_near_radius
+    if (present(reference)) then
+      call new_operator(reference, direct)
+    else
+      call new_operator('direct', direct)
+    end if
     call new_operator(inner, whole, replicated=.true.)
     call direct%create(ctx%comm, basis, centres, first, n_mine, options, err)
     call whole%create(ctx%comm, basis, centres, first, n_mine, options, err)
