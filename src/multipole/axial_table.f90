@@ -13,7 +13,7 @@ module beadmob_axial_table
   use beadmob_kinds, only: dp
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: pair_block
-  use beadmob_harmonic_rotation, only: rotation_rule_t, make_rotation_rule, degree_rotations, rotation_to_direction
+  use beadmob_harmonic_rotation, only: rotation_rule_t, make_rotation_rule, direction_rotations
   implicit none
   private
   public :: axial_table_t, make_axial_table, axial_block, rotated_block, axial_nodes
@@ -165,7 +165,7 @@ contains
     real(dp) :: rotations(2 * table%order + 1, 2 * table%order + 1, table%order)
     integer :: g, n, f, l, c, k
     call axial_block(table, norm2(displacement), axial)
-    call degree_rotations(table%rotation, rotation_to_direction(displacement), rotations)
+    call direction_rotations(table%rotation, displacement, rotations)
     ! half = A_z D^T, then block = D half (D block-diagonal with blocks O^n), group by group in
     ! explicit loops over whole columns (the intrinsic matmul of these small sections, with its
     ! temporaries, took twice as long as the rest of the block).

@@ -30,7 +30,8 @@ program test_offlattice
   use beadmob_multipole_basis, only: multipole_basis_t, make_multipole_basis
   use beadmob_pair_blocks, only: pair_block
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
-  use beadmob_harmonic_rotation, only: rotation_rule_t, make_rotation_rule, degree_rotations, rotation_to_direction
+  use beadmob_harmonic_rotation, only: rotation_rule_t, make_rotation_rule, degree_rotations, rotation_to_direction, &
+                                       direction_rotations
   use beadmob_bead_operator, only: bead_operator_t, create_bead_operator, destroy_bead_operator
   use beadmob_pfft_operator, only: pfft_operator_t, create_pfft_operator, destroy_pfft_operator
   use beadmob_friction_job, only: friction_settings_t, friction_result_t, friction_of_model
@@ -88,6 +89,9 @@ contains
     real(dp) :: q1(3, 3), q2(3, 3), o1(2 * order + 1, 2 * order + 1, order), o2(2 * order + 1, 2 * order + 1, order), &
                 o12(2 * order + 1, 2 * order + 1, order), worst_orthogonal, worst_product, identity(2 * order + 1, 2 * order + 1)
     integer :: n, m, k
+    real(dp), parameter :: directions(3, 9) = reshape([1.0_dp, 2.0_dp, 3.0_dp, -0.3_dp, 0.1_dp, -1.0_dp, &
+      0.0_dp, 0.0_dp, 2.0_dp, 0.0_dp, 0.0_dp, -1.5_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, &
+      -2.0_dp, -1.0_dp, 0.5_dp, 1.0e-9_dp, 0.0_dp, 1.0_dp, 3.0_dp, -4.0_dp, -0.25_dp], [3, 9])
     rule = make_rotation_rule(order)
     q1 = rotation_to_direction([1.0_dp, 2.0_dp, 3.0_dp])
     q2 = rotation_to_direction([-0.3_dp, 0.1_dp, -1.0_dp])
@@ -109,6 +113,17 @@ contains
     end do
     call check(suite, worst_orthogonal <= 1.0e-13_dp, 'harmonic rotations orthogonal to ' // str(worst_orthogonal))
     call check(suite, worst_product <= 1.0e-13_dp, 'harmonic rotations compose, to ' // str(worst_product))
+    ! The factorised rotation to a direction (R_z(phi) R_y(theta), closed-form R_z factors) against
+    ! the harmonics' quadrature of the same rotation: general directions, both poles, the axes.
+    call check(suite, rule%factorised, 'the rotations about z have the cos/sin pair form')
+    worst_product = 0.0_dp
+    do k = 1, size(directions, 2)
+      call degree_rotations(rule, rotation_to_direction(directions(:, k)), o1)
+      call direction_rotations(rule, directions(:, k), o2)
+      worst_product = max(worst_product, maxval(abs(o1 - o2)))
+    end do
+    call check(suite, worst_product <= 1.0e-13_dp, 'factorised rotations to a direction = quadrature, to ' // &
+               str(worst_product))
   end subroutine check_rotations
 
   !> pfft product against the direct product for a random x, and <u, A v> = <v, A u>.
