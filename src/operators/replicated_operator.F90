@@ -11,6 +11,7 @@ module beadmob_replicated_operator
   use petscmat
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t
+  use beadmob_parallel, only: run_context_t, make_run_context, agree_on_error
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t
@@ -58,8 +59,9 @@ module beadmob_replicated_operator
 contains
 
   !> multipole_operator_t%create: the inner operator of all beads on this rank alone (the table
-  !> cache and FFTW wisdom read and written by rank 0 only: one writer), then the shell of the
-  !> distributed rows first_bead .. first_bead + n_local - 1.
+  !> cache and FFTW wisdom read and written by rank 0 only: one writer), then, once every rank has
+  !> its own (an error on any rank is every rank's), the shell of the distributed rows
+  !> first_bead .. first_bead + n_local - 1.
   subroutine create_replicated(this, comm, basis, centres, first_bead, n_local, options, err)
     class(replicated_operator_t), target, intent(inout) :: this
     MPI_Comm, intent(in) :: comm
@@ -69,20 +71,21 @@ contains
     type(operator_options_t), intent(in) :: options
     type(error_t), intent(inout) :: err
     type(operator_options_t) :: whole_options
-    integer :: ierr
-    call MPI_Comm_rank(comm, this%rank, ierr)
+    type(run_context_t) :: ctx
+    ctx = make_run_context(comm)
     whole_options = options
-    if (this%rank /= 0) then
+    if (ctx%rank /= 0) then
       whole_options%cache_file = ''
       whole_options%report = .false.
     end if
     call this%inner%create(PETSC_COMM_SELF, basis, centres, 1_i8, size(centres, 2, kind=i8), whole_options, err)
+    call agree_on_error(ctx, err)
     if (err%failed) return
     this%n_beads = size(centres, 2, kind=i8)
     this%first_bead = first_bead
     this%n_local = n_local
     call copy_description(this%inner, this)
-    call make_shell(comm, this)
+    call make_shell(ctx, this)
   end subroutine create_replicated
 
   !> multipole_operator_t%create_companion: the inner operator's companion, replicated alike.
@@ -92,18 +95,20 @@ contains
     integer, intent(in) :: unknowns(:)
     class(multipole_operator_t), allocatable, target, intent(inout) :: companion
     type(error_t), intent(inout) :: err
+    type(run_context_t) :: ctx
     if (err%failed) return
+    ctx = make_run_context(comm)
     allocate (replicated_operator_t :: companion)
     select type (companion)
     type is (replicated_operator_t)
       call this%inner%create_companion(PETSC_COMM_SELF, unknowns, companion%inner, err)
+      call agree_on_error(ctx, err)
       if (err%failed) return
       companion%n_beads = this%n_beads
       companion%first_bead = this%first_bead
       companion%n_local = this%n_local
-      companion%rank = this%rank
       call copy_description(companion%inner, companion)
-      call make_shell(comm, companion)
+      call make_shell(ctx, companion)
     end select
   end subroutine replicated_companion
 
@@ -123,18 +128,19 @@ contains
 
   !> Collective. The distributed MATSHELL and, for every rank r, the scatter of a distributed
   !> vector to the whole vector on r (every index on r, none elsewhere).
-  subroutine make_shell(comm, op)
-    MPI_Comm, intent(in) :: comm
+  subroutine make_shell(ctx, op)
+    type(run_context_t), intent(in) :: ctx
     type(replicated_operator_t), target, intent(inout) :: op
     PetscInt :: local_size, global_size, whole_size
     Vec :: distributed, whole
     IS :: from, to
     PetscErrorCode :: ierr
     integer :: r
-    call MPI_Comm_size(comm, op%n_ranks, ierr)
+    op%rank = ctx%rank
+    op%n_ranks = ctx%n_ranks
     local_size = int(op%n_local * op%block_size)
     global_size = int(op%n_beads * op%block_size)
-    PetscCallA(MatCreateShell(comm, local_size, local_size, global_size, global_size, op, op%matrix, ierr))
+    PetscCallA(MatCreateShell(ctx%comm, local_size, local_size, global_size, global_size, op, op%matrix, ierr))
     PetscCallA(MatShellSetOperation(op%matrix, MATOP_MULT, apply_replicated_operator, ierr))
     PetscCallA(MatSetOption(op%matrix, MAT_SYMMETRIC, PETSC_TRUE, ierr))
     PetscCallA(MatSetOption(op%matrix, MAT_SPD, PETSC_TRUE, ierr))
@@ -217,7 +223,7 @@ contains
     have = 0
     if (allocated(op%whole_x)) have = size(op%whole_x)
     if (have >= count) return
-    call free_replicated_batches(op)
+    call free_whole_vectors(op)   ! only these: the inner operator's batch buffers stay
     allocate (op%whole_x(count), op%whole_y(count))
     do j = 1, count
       PetscCallA(VecCreateSeq(PETSC_COMM_SELF, int(op%n_beads * op%block_size), op%whole_x(j), ierr))
@@ -225,17 +231,22 @@ contains
     end do
   end subroutine provide_whole_vectors
 
-  subroutine free_replicated_batches(this)
-    class(replicated_operator_t), intent(inout) :: this
+  subroutine free_whole_vectors(op)
+    type(replicated_operator_t), intent(inout) :: op
     integer :: j
     PetscErrorCode :: ierr
-    if (allocated(this%whole_x)) then
-      do j = 1, size(this%whole_x)
-        PetscCallA(VecDestroy(this%whole_x(j), ierr))
-        PetscCallA(VecDestroy(this%whole_y(j), ierr))
-      end do
-      deallocate (this%whole_x, this%whole_y)
-    end if
+    if (.not. allocated(op%whole_x)) return
+    do j = 1, size(op%whole_x)
+      PetscCallA(VecDestroy(op%whole_x(j), ierr))
+      PetscCallA(VecDestroy(op%whole_y(j), ierr))
+    end do
+    deallocate (op%whole_x, op%whole_y)
+  end subroutine free_whole_vectors
+
+  !> multipole_operator_t%free_batches: the whole vectors and the inner operator's batch buffers.
+  subroutine free_replicated_batches(this)
+    class(replicated_operator_t), intent(inout) :: this
+    call free_whole_vectors(this)
     if (allocated(this%inner)) call this%inner%free_batches()
   end subroutine free_replicated_batches
 

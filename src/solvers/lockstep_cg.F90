@@ -202,7 +202,7 @@ contains
         iterations(k) = iteration
         if (.not. ieee_is_finite(norm(k))) then
           call finish(k, KSP_DIVERGED_NANORINF)
-        else if (norm(k) <= tolerance(k)) then
+        else if (converging(k)) then
           call finish(k, merge(KSP_CONVERGED_ATOL, KSP_CONVERGED_RTOL, norm(k) < limits%abstol))
         else if (norm(k) >= limits%dtol * norm0(k)) then
           call finish(k, KSP_DIVERGED_DTOL)
