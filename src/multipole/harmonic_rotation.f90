@@ -69,7 +69,6 @@ contains
         rule%z_sign(k, n) = sign(1.0_dp, about_z(n + 1 + k, n + 1 - k, n) * sin(real(k, dp)))
       end do
     end do
-    rule%factorised = .true.
     call degree_rotations(rule, z_rotation(2.5_dp), about_z)
     call z_blocks(rule, cos(2.5_dp), sin(2.5_dp), model)
     rule%factorised = maxval(abs(about_z - model)) <= 1.0e-13_dp
