@@ -1585,35 +1585,36 @@ contains
     end do
   end subroutine multiply_classes
 
-  !> x <- K x at one frequency, K = [R_ee, i J_eo; -i J_eo^T, R_oo] (even: the slots where
-  !> `even`, in any order) from its packed upper triangle (the real numbers K' of
-  !> frequency_product.inc, without the mirrored image).
-  pure subroutine multiply_class_frequency(even, packed, spectrum)
+  ! x <- K x at one frequency in a mirror class (class_frequency_product.inc), for L = 2 (16
+  ! unknowns per bead), its companion (6) and any block size.
+#define BLOCK 16
+#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_16
+#include "class_frequency_product.inc"
+#undef BLOCK
+#undef CLASS_FREQUENCY_PRODUCT
+#define BLOCK 6
+#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_6
+#include "class_frequency_product.inc"
+#undef BLOCK
+#undef CLASS_FREQUENCY_PRODUCT
+#define BLOCK size(spectrum)
+#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_any
+#include "class_frequency_product.inc"
+#undef BLOCK
+#undef CLASS_FREQUENCY_PRODUCT
+
+  !> The class frequency product for the operator's block size.
+  subroutine multiply_class_frequency(even, packed, spectrum)
     logical, intent(in) :: even(:)
-    real(dp), intent(in) :: packed(:)
-    complex(C_DOUBLE_COMPLEX), intent(inout) :: spectrum(:)
-    real(dp) :: z(size(spectrum), 2), w(size(spectrum), 2), k_st, c1, c2
-    integer :: s, t, top, nb
-    nb = size(spectrum)
-    z(:, 1) = merge(real(spectrum, dp), -aimag(spectrum), even)
-    z(:, 2) = merge(aimag(spectrum), real(spectrum, dp), even)
-    w = 0.0_dp
-    top = 0
-    do t = 1, nb
-      k_st = packed(top + t)
-      c1 = k_st * z(t, 1)
-      c2 = k_st * z(t, 2)
-      do s = 1, t - 1
-        k_st = packed(top + s)
-        w(s, 1) = w(s, 1) + k_st * z(t, 1)
-        w(s, 2) = w(s, 2) + k_st * z(t, 2)
-        c1 = c1 + k_st * z(s, 1)
-        c2 = c2 + k_st * z(s, 2)
-      end do
-      w(t, 1) = w(t, 1) + c1
-      w(t, 2) = w(t, 2) + c2
-      top = top + t
-    end do
-    spectrum = merge(cmplx(w(:, 1), w(:, 2), kind=C_DOUBLE_COMPLEX), cmplx(w(:, 2), -w(:, 1), kind=C_DOUBLE_COMPLEX), even)
+    real(dp), intent(in), contiguous :: packed(:)
+    complex(C_DOUBLE_COMPLEX), intent(inout), contiguous :: spectrum(:)
+    select case (size(spectrum))
+    case (16)
+      call multiply_class_frequency_16(even, packed, spectrum)
+    case (6)
+      call multiply_class_frequency_6(even, packed, spectrum)
+    case default
+      call multiply_class_frequency_any(even, packed, spectrum)
+    end select
   end subroutine multiply_class_frequency
 end module beadmob_fft_operator
