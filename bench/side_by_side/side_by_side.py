@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """side_by_side.py --a "OPTIONS" --b "OPTIONS" --out FILE [--title T] [--exe BUILD/beadmob] [--repeats 3]
-[--ranks 2] [--random 1000] [--random-only]:
-two sets of command-line options of one build, side by side on the lattice jobs of issue 24.
+[--ranks 2] [--random 1000] [--jittered 2000] [--random-only]:
+two sets of command-line options of one build, side by side on the jobs of issue 24 (lattice
+bodies; with --jittered, off-lattice ones too).
 
 Each job runs with options A and options B in alternation (both see the same machine), on `--ranks`
 ranks (oversubscribed beyond the cores),
@@ -30,6 +31,7 @@ sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
 sys.path.insert(0, str(ROOT / "tests" / "e2e"))
 from everyday_jobs import write_beads  # noqa: E402
 from eden_body import eden_body  # noqa: E402
+from offlattice import jittered  # noqa: E402
 import solver_promise  # noqa: E402
 
 ENV = {k: v for k, v in os.environ.items() if k != "BEADMOB_CACHE"}
@@ -73,7 +75,9 @@ def main():
     parser.add_argument("--note", default="", help="a paragraph written below the table")
     parser.add_argument("--ranks", type=int, default=2)
     parser.add_argument("--random", default="1000", help="bead counts of the random (Eden) bodies, comma-separated")
-    parser.add_argument("--random-only", action="store_true", help="only the random bodies")
+    parser.add_argument("--jittered", default="", help="bead counts of jittered off-lattice clusters (bench/offlattice), "
+                        "comma-separated")
+    parser.add_argument("--random-only", action="store_true", help="only the random (and jittered) bodies")
     args = parser.parse_args()
     exe = os.path.abspath(args.exe)
     sets = {"A": shlex.split(args.a), "B": shlex.split(args.b)}
@@ -85,6 +89,11 @@ def main():
             (work / f"random_{count}.nml").write_text(f"&run output = 'random_{count}.h5' /\n&shape name = 'bead_file', "
                                                       f"file = 'random_{count}.txt' /\n&hydrodynamics /\n")
             jobs.append((f"random {count} beads", work / f"random_{count}.nml"))
+        for count in [int(n) for n in args.jittered.split(",") if n]:
+            write_beads(work / f"jittered_{count}.txt", jittered(count))
+            (work / f"jittered_{count}.nml").write_text(f"&run output = 'jittered_{count}.h5' /\n&shape name = "
+                                                        f"'bead_file', file = 'jittered_{count}.txt' /\n&hydrodynamics /\n")
+            jobs.append((f"jittered {count} beads (off the lattice)", work / f"jittered_{count}.nml"))
         (work / "sphere_20.nml").write_text("&run output = 'sphere.h5' /\n&shape name = 'sphere', radius = 20 /\n"
                                             "&hydrodynamics /\n")
         if not args.random_only:
