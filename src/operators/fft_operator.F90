@@ -268,7 +268,8 @@ contains
 
   !> fft_cost of an operator whose products run by mirror class (choose_axes, mirror_transform.f90):
   !> the kernel on the octant of frequencies with its middle-axis lines split over the ranks, one
-  !> buffer per batched vector (the data planes or the spectrum, and the transposed planes), and
+  !> buffer per batched vector (the data planes or the spectrum, the transposed data planes and the
+  !> slow-axis scratch of one middle line), and
   !> per product the cosine and sine passes of the fast axis on the fundamental data rows and of the
   !> middle axis on the data planes, the slow axis whole, and the kernel product on the octant.
   pure subroutine mirrored_fft_cost(size, cost)
@@ -291,7 +292,8 @@ contains
     planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     frequencies = lines * (cost%fft_box(3) / 2 + 1) * half(1)
     cost%kernel = 8 * packed * frequencies
-    cost%fft_buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * cost%fft_box(3) * half(1))
+    cost%fft_buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * data(3) * half(1) &
+                                + cost%fft_box(3) * half(1))
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     call batch_and_setup_cost(size, lines, cost)
     ! Per field, in the pruned transform's units (a site's log2): the passes of the fast and the

@@ -70,12 +70,14 @@ module beadmob_mirror_transform
   end type mirror_transform_t
 
   !> One buffer: region A holds the data planes, then (same memory) the spectrum; region B the
-  !> transposed planes extended along the slow axis.
+  !> transposed data planes. The scratch holds one middle line's slow-axis lines, each contiguous.
   type :: mirror_buffer_t
-    type(C_PTR) :: memory = C_NULL_PTR
+    type(C_PTR) :: memory = C_NULL_PTR, scratch_memory = C_NULL_PTR
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()
     real(C_DOUBLE), pointer, contiguous :: slab(:) => null()        ! [planes][half_m][half_f][fields]
-    real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][n_slow][half_f][fields]
+    real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][data planes][half_f][fields]
+    !> scratch(k_slow, p): the slow-axis line of the row's complex pair p (the row's numbers 2p - 1, 2p)
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: scratch(:, :) => null()
     !> (numbers of a row, rows [lines][k_slow <= n_slow/2]); field s at fast frequency k of a row
     !> is number 1 + field_base(s) + k field_step(s)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
@@ -165,7 +167,7 @@ contains
     t%n_frequencies = int(t%lines, i8) * (box(3) / 2 + 1) * t%half(1)
     t%slab_doubles = max(int(t%planes, i8) * t%half(2) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
     t%spectrum_doubles = 2 * int(t%lines, i8) * (box(3) / 2 + 1) * t%row
-    t%transposed_doubles = max(int(t%lines, i8) * box(3) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
+    t%transposed_doubles = max(int(t%lines, i8) * data(3) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
     ! Runs of fields with equal signs.
     allocate (t%run_first(t%fields), t%run_count(t%fields), t%run_sign(2, t%fields))
     runs = 0
@@ -207,13 +209,20 @@ contains
     call c_f_pointer(b%memory, b%all, [doubles])
     b%slab => b%all(1:max(t%slab_doubles, 1_i8))
     b%transposed => b%all(region_a + 1:region_a + t%transposed_doubles)
+    b%scratch_memory = fftw_alloc_real(int(t%box(3), C_SIZE_T) * t%row)
+    made = c_associated(b%scratch_memory)
+    if (.not. made) return
+    call c_f_pointer(b%scratch_memory, b%scratch, [t%box(3), t%row / 2])
     call c_f_pointer(b%memory, b%spectrum, [int(t%row, i8), max(t%lines * (t%box(3) / 2 + 1), 1_i8)])
   end subroutine make_mirror_buffer
 
   subroutine destroy_mirror_buffer(b)
     type(mirror_buffer_t), intent(inout) :: b
     if (c_associated(b%memory)) call fftw_free(b%memory)
+    if (c_associated(b%scratch_memory)) call fftw_free(b%scratch_memory)
     b%memory = C_NULL_PTR
+    b%scratch_memory = C_NULL_PTR
+    b%scratch => null()
     b%all => null()
     b%slab => null()
     b%transposed => null()
@@ -262,13 +271,14 @@ contains
       end do
     end if
     if (t%lines > 0) then
-      ! In place on the transposed planes, the row's numbers paired as complex ones.
-      line(1) = fftw_iodim(t%box(3), t%row / 2, t%row / 2)
-      slow_many(1) = fftw_iodim(t%row / 2, 1, 1)
-      slow_many(2) = fftw_iodim(int(t%lines), t%box(3) * t%row / 2, t%box(3) * t%row / 2)
-      t%slow_forward = fftw_plan_guru_dft(1, line, 2, slow_many, c_loc(b%transposed), c_loc(b%transposed), &
+      ! In place on the scratch's contiguous lines, one middle line at a time: FFTW's estimated
+      ! plans for the same lines strided across the row (the layout of the spectrum) cost 2-3.5
+      ! times as much at many sizes (140, 120, 100: bench/fft_layout), contiguous ones never more.
+      line(1) = fftw_iodim(t%box(3), 1, 1)
+      slow_many(1) = fftw_iodim(t%row / 2, t%box(3), t%box(3))
+      t%slow_forward = fftw_plan_guru_dft(1, line, 1, slow_many(1:1), c_loc(b%scratch), c_loc(b%scratch), &
                                           FFTW_FORWARD, flags)
-      t%slow_backward = fftw_plan_guru_dft(1, line, 2, slow_many, c_loc(b%transposed), c_loc(b%transposed), &
+      t%slow_backward = fftw_plan_guru_dft(1, line, 1, slow_many(1:1), c_loc(b%scratch), c_loc(b%scratch), &
                                            FFTW_BACKWARD, flags)
       if (.not. c_associated(t%slow_forward)) missing = missing + 1
       if (.not. c_associated(t%slow_backward)) missing = missing + 1
@@ -319,28 +329,26 @@ contains
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: class
-    integer :: axis
-    integer(i8) :: row, line, plane
+    integer :: axis, line, plane
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
     do axis = 1, 2
       call run_passes(t, b, class, axis, forward)
     end do
     call fftw_mpi_execute_r2r(t%transpose_forward, b%memory, c_loc(b%transposed))
-    ! [lines][data planes][row] -> [lines][n_slow][row], zero beyond the data planes; backwards,
-    ! since each line moves to a later place.
-    row = t%row
-    do line = t%lines - 1, 0, -1
-      do plane = t%data(3) - 1, 0, -1
-        call move(b%transposed, (line * t%data(3) + plane) * row, (line * t%box(3) + plane) * row, row)
+    ! The slow axis, middle line by middle line: two real lines a, b at once as the complex line
+    ! z = a + i b, transposed into the scratch (zero beyond the data planes); their spectra follow
+    ! from Z's, A(k) = (Z(k) + conj Z(n - k)) / 2 and B(k) = (Z(k) - conj Z(n - k)) / 2i, k = 0 ..
+    ! n/2 (a real FFT of each at half the cost).
+    if (t%lines == 0) return
+    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
+    do line = 1, int(t%lines)
+      do plane = 1, t%data(3)
+        b%scratch(plane, :) = z(:, plane, line)
       end do
-      b%transposed((line * t%box(3) + t%data(3)) * row + 1:(line + 1) * t%box(3) * row) = 0.0_dp
+      b%scratch(t%data(3) + 1:, :) = (0.0_dp, 0.0_dp)
+      call fftw_execute_dft(t%slow_forward, c_loc(b%scratch), c_loc(b%scratch))
+      call split_pairs(t, b, line)
     end do
-    ! The slow axis: two real lines a, b at once as the complex line z = a + i b; their spectra
-    ! follow from Z's, A(k) = (Z(k) + conj Z(n - k)) / 2 and B(k) = (Z(k) - conj Z(n - k)) / 2i,
-    ! k = 0 .. n/2 (a real FFT of each, twice as fast on these strided lines).
-    if (t%lines > 0) then
-      call fftw_execute_dft(t%slow_forward, c_loc(b%transposed), c_loc(b%transposed))
-      call split_pairs(t, b)
-    end if
   end subroutine mirror_forward
 
   !> The spectrum of buffer b (overwritten) -> its data planes (b%slab) of class `class`, right
@@ -349,16 +357,14 @@ contains
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: class
-    integer :: axis
-    integer(i8) :: row, line, plane
-    if (t%lines > 0) then
-      call join_pairs(t, b)
-      call fftw_execute_dft(t%slow_backward, c_loc(b%transposed), c_loc(b%transposed))
-    end if
-    row = t%row
-    do line = 0, t%lines - 1
-      do plane = 0, t%data(3) - 1
-        call move(b%transposed, (line * t%box(3) + plane) * row, (line * t%data(3) + plane) * row, row)
+    integer :: axis, line, plane
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    if (t%lines > 0) call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
+    do line = 1, int(t%lines)
+      call join_pairs(t, b, line)
+      call fftw_execute_dft(t%slow_backward, c_loc(b%scratch), c_loc(b%scratch))
+      do plane = 1, t%data(3)
+        z(:, plane, line) = b%scratch(plane, :)
       end do
     end do
     call fftw_mpi_execute_r2r(t%transpose_backward, c_loc(b%transposed), b%memory)
@@ -367,48 +373,43 @@ contains
     end do
   end subroutine mirror_backward
 
-  !> The spectra of the pairs' two real lines (Z in the transposed planes) into the spectrum.
-  subroutine split_pairs(t, b)
+  !> The spectra of the pairs' two real lines (Z in the scratch) of middle line `line` into the
+  !> spectrum.
+  subroutine split_pairs(t, b, line)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    integer, intent(in) :: line
     integer :: n, k, p
-    integer(i8) :: line, row
+    integer(i8) :: row
     complex(C_DOUBLE_COMPLEX) :: here, there
     n = t%box(3)
-    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, n, int(t%lines)])
-    do line = 1, t%lines
-      do k = 0, n / 2
-        row = k + 1 + (line - 1) * (n / 2 + 1)
-        do p = 1, t%row / 2
-          here = z(p, k + 1, line)
-          there = conjg(z(p, mod(n - k, n) + 1, line))
-          b%spectrum(2 * p - 1, row) = 0.5_dp * (here + there)
-          b%spectrum(2 * p, row) = cmplx(0.0_dp, -0.5_dp, C_DOUBLE_COMPLEX) * (here - there)
-        end do
+    do k = 0, n / 2
+      row = k + 1 + (line - 1) * int(n / 2 + 1, i8)
+      do p = 1, t%row / 2
+        here = b%scratch(k + 1, p)
+        there = conjg(b%scratch(mod(n - k, n) + 1, p))
+        b%spectrum(2 * p - 1, row) = 0.5_dp * (here + there)
+        b%spectrum(2 * p, row) = cmplx(0.0_dp, -0.5_dp, C_DOUBLE_COMPLEX) * (here - there)
       end do
     end do
   end subroutine split_pairs
 
-  !> The inverse of split_pairs: Z(k) = A(k) + i B(k) for every k (A(n - k) = conj A(k)) into the
-  !> transposed planes, whose inverse transform is then a + i b.
-  subroutine join_pairs(t, b)
+  !> The inverse of split_pairs for middle line `line`: Z(k) = A(k) + i B(k) for every k (A(n - k)
+  !> = conj A(k)) into the scratch, whose inverse transform is then a + i b.
+  subroutine join_pairs(t, b, line)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    integer, intent(in) :: line
     integer :: n, k, p
-    integer(i8) :: line, row
+    integer(i8) :: row
     complex(C_DOUBLE_COMPLEX), parameter :: i = (0.0_dp, 1.0_dp)
     n = t%box(3)
-    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, n, int(t%lines)])
-    do line = 1, t%lines
-      do k = 0, n / 2
-        row = k + 1 + (line - 1) * (n / 2 + 1)
-        do p = 1, t%row / 2
-          z(p, k + 1, line) = b%spectrum(2 * p - 1, row) + i * b%spectrum(2 * p, row)
-          if (k > 0 .and. 2 * k /= n) z(p, n - k + 1, line) = conjg(b%spectrum(2 * p - 1, row)) + &
-                                                              i * conjg(b%spectrum(2 * p, row))
-        end do
+    do k = 0, n / 2
+      row = k + 1 + (line - 1) * int(n / 2 + 1, i8)
+      do p = 1, t%row / 2
+        b%scratch(k + 1, p) = b%spectrum(2 * p - 1, row) + i * b%spectrum(2 * p, row)
+        if (k > 0 .and. 2 * k /= n) b%scratch(n - k + 1, p) = conjg(b%spectrum(2 * p - 1, row)) + &
+                                                               i * conjg(b%spectrum(2 * p, row))
       end do
     end do
   end subroutine join_pairs
