@@ -57,7 +57,8 @@ module beadmob_fft_operator
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
   use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
-                                      mirror_forward, mirror_backward, make_mirror_buffer, destroy_mirror_buffer, &
+                                      forward_planes, forward_line, backward_line, backward_planes, &
+                                      make_mirror_buffer, destroy_mirror_buffer, &
                                       destroy_mirror_transform, n_classes, class_signs
   use beadmob_mirror_classes, only: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, &
                                     classes_of, fold_class, unfold_class
@@ -268,8 +269,8 @@ contains
 
   !> fft_cost of an operator whose products run by mirror class (choose_axes, mirror_transform.f90):
   !> the kernel on the octant of frequencies with its middle-axis lines split over the ranks, one
-  !> buffer per batched vector (the data planes or the spectrum, the transposed data planes and the
-  !> slow-axis scratch of one middle line), and
+  !> buffer per batched vector (the data planes, the transposed data planes, and the slow-axis
+  !> scratch and spectrum of one middle line), and
   !> per product the cosine and sine passes of the fast axis on the fundamental data rows and of the
   !> middle axis on the data planes, the slow axis whole, and the kernel product on the octant.
   pure subroutine mirrored_fft_cost(size, cost)
@@ -292,8 +293,8 @@ contains
     planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     frequencies = lines * (cost%fft_box(3) / 2 + 1) * half(1)
     cost%kernel = 8 * packed * frequencies
-    cost%fft_buffer = 8 * nb * (max(planes * half(2) * half(1), 2 * frequencies) + lines * data(3) * half(1) &
-                                + cost%fft_box(3) * half(1))
+    cost%fft_buffer = 8 * nb * (planes * half(2) * half(1) + lines * data(3) * half(1) &
+                                + (cost%fft_box(3) + 2 * (cost%fft_box(3) / 2 + 1)) * half(1))
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     call batch_and_setup_cost(size, lines, cost)
     ! Per field, in the pruned transform's units (a site's log2): the passes of the fast and the
@@ -1492,7 +1493,7 @@ contains
     type(fft_operator_t), target, intent(inout) :: op
     Vec, intent(in) :: x(:), y(:)   ! PETSc handles: the vectors behind y are written
     integer :: item_vector(n_classes * size(x)), item_class(n_classes * size(x)), classes(n_classes)
-    integer :: n_items, n, j, k, first, batch
+    integer :: n_items, n, j, k, first, batch, line
     logical :: started(size(x))
     PetscScalar, pointer :: slab(:)
     PetscErrorCode :: ierr
@@ -1512,15 +1513,25 @@ contains
         call fold_class(op%classes, x(item_vector(first + k - 1)), item_class(first + k - 1), op%buffer_slabs(k))
         ! The FFTs write the array behind the PETSc vector: bracketed by Get/Restore.
         PetscCallA(VecGetArrayF90(op%buffer_slabs(k), slab, ierr))
-        call mirror_forward(op%reduced, op%buffers(k), item_class(first + k - 1))
+        call forward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
       end do
-      if (associated(op%shared_kernel)) then
-        call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), op%kernel_map)
-      else
-        call multiply_classes(op, op%kernel, item_class(first:first + n - 1))
-      end if
+      ! The slow axis, the kernel's product and back, middle line by middle line: each line's
+      ! spectra stay in cache between the transforms and the product.
+      do line = 1, int(op%reduced%lines)
+        do k = 1, n
+          call forward_line(op%reduced, op%buffers(k), line)
+        end do
+        if (associated(op%shared_kernel)) then
+          call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), line, op%kernel_map)
+        else
+          call multiply_classes(op, op%kernel, item_class(first:first + n - 1), line)
+        end if
+        do k = 1, n
+          call backward_line(op%reduced, op%buffers(k), line)
+        end do
+      end do
       do k = 1, n
-        call mirror_backward(op%reduced, op%buffers(k), item_class(first + k - 1))
+        call backward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
         PetscCallA(VecRestoreArrayF90(op%buffer_slabs(k), slab, ierr))
         j = item_vector(first + k - 1)
         call unfold_class(op%classes, op%buffer_slabs(k), item_class(first + k - 1), y(j), started(j))
@@ -1548,14 +1559,14 @@ contains
     PetscCallA(VecRestoreArrayReadF90(x, local_x, ierr))
   end subroutine add_self_term
 
-  !> The spectra of the first size(classes) buffers, buffer k of class classes(k), times the
-  !> class's kernel frequency by frequency: one pass over the kernel for all. A spectrum row
-  !> holds the fast-axis frequencies of one (line, k_slow) with the fields at field_base +
-  !> k field_step (mirror_transform.f90).
-  subroutine multiply_classes(op, kernel, classes, map)
+  !> The spectra of middle line `line` of the first size(classes) buffers, buffer k of class
+  !> classes(k), times the class's kernel frequency by frequency: one pass over the line's kernel
+  !> for all. A spectrum row holds the fast-axis frequencies of one k_slow with the fields at
+  !> field_base + k field_step (mirror_transform.f90).
+  subroutine multiply_classes(op, kernel, classes, line, map)
     type(fft_operator_t), intent(inout) :: op
     real(dp), intent(in), contiguous :: kernel(:, :)
-    integer, intent(in) :: classes(:)
+    integer, intent(in) :: classes(:), line
     integer, intent(in), optional :: map(:)
     real(dp) :: column(size(op%class_factor, 1)), signed(size(op%class_factor, 1), n_classes)
     complex(C_DOUBLE_COMPLEX) :: values(op%block_size)
@@ -1565,8 +1576,8 @@ contains
     integer :: k, c, fast
     present_class = .false.
     present_class(classes) = .true.
-    g = 0
-    do row = 1, op%reduced%lines * (op%box(3) / 2 + 1)
+    g = int(line - 1, i8) * (op%box(3) / 2 + 1) * op%reduced%half(1)   ! the line's first frequency
+    do row = 1, op%box(3) / 2 + 1
       do fast = 0, op%reduced%half(1) - 1
         g = g + 1
         if (present(map)) then

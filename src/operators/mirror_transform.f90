@@ -36,8 +36,9 @@ module beadmob_mirror_transform
   use mpi, only: MPI_Allreduce, MPI_IN_PLACE, MPI_INTEGER, MPI_SUM
   implicit none
   private
-  public :: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, mirror_forward, &
-            mirror_backward, make_mirror_buffer, destroy_mirror_buffer, destroy_mirror_transform, n_classes, class_signs
+  public :: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, forward_planes, &
+            forward_line, backward_line, backward_planes, make_mirror_buffer, destroy_mirror_buffer, &
+            destroy_mirror_transform, n_classes, class_signs
 
   !> Classes (s_f, s_m): 1 = (+, +), 2 = (-, +), 3 = (+, -), 4 = (-, -).
   integer, parameter :: n_classes = 4
@@ -53,7 +54,7 @@ module beadmob_mirror_transform
     integer :: row = 0                     ! doubles of one (plane, middle slot): half(1) * fields
     integer(C_INTPTR_T) :: planes = 0, first_plane = 0, lines = 0, first_line = 0
     integer(i8) :: n_frequencies = 0       ! this rank's: lines * (box(3)/2 + 1) * half(1)
-    integer(i8) :: slab_doubles = 0, spectrum_doubles = 0, transposed_doubles = 0
+    integer(i8) :: slab_doubles = 0, transposed_doubles = 0
     !> Runs of consecutive fields with the same mirror signs D_f, D_m (run_sign(:, run))
     integer, allocatable :: run_first(:), run_count(:), run_sign(:, :)
     integer, allocatable :: field_base(:), field_step(:)   ! by field (row layout above)
@@ -69,17 +70,18 @@ module beadmob_mirror_transform
     type(C_PTR) :: transpose_forward = C_NULL_PTR, transpose_backward = C_NULL_PTR
   end type mirror_transform_t
 
-  !> One buffer: region A holds the data planes, then (same memory) the spectrum; region B the
-  !> transposed data planes. The scratch holds one middle line's slow-axis lines, each contiguous.
+  !> One buffer: region A holds the data planes, region B the transposed data planes. The slow
+  !> axis runs one middle line at a time (forward_line, backward_line): the scratch holds the
+  !> line's slow-axis lines, each contiguous, the spectrum the line's frequencies.
   type :: mirror_buffer_t
-    type(C_PTR) :: memory = C_NULL_PTR, scratch_memory = C_NULL_PTR
+    type(C_PTR) :: memory = C_NULL_PTR, scratch_memory = C_NULL_PTR, spectrum_memory = C_NULL_PTR
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()
     real(C_DOUBLE), pointer, contiguous :: slab(:) => null()        ! [planes][half_m][half_f][fields]
     real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][data planes][half_f][fields]
     !> scratch(k_slow, p): the slow-axis line of the row's complex pair p (the row's numbers 2p - 1, 2p)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: scratch(:, :) => null()
-    !> (numbers of a row, rows [lines][k_slow <= n_slow/2]); field s at fast frequency k of a row
-    !> is number 1 + field_base(s) + k field_step(s)
+    !> (numbers of a row, rows k_slow = 0 .. n_slow/2) of one middle line; field s at fast
+    !> frequency k of a row is number 1 + field_base(s) + k field_step(s)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
   end type mirror_buffer_t
 
@@ -146,7 +148,7 @@ contains
     t%half = box(1:2) / 2 + 1
     t%whole = mod(data(1:2), 2) == 1
     t%fundamental = merge((data(1:2) + 1) / 2, data(1:2) / 2, t%whole)
-    ! Even: the slow axis transforms the real numbers of a row in pairs (mirror_forward); an odd
+    ! Even: the slow axis transforms the real numbers of a row in pairs (forward_line); an odd
     ! count gets one unused number.
     t%row = 2 * ((t%half(1) * t%fields + 1) / 2)
     t%dense = t%half <= default_dense_limit
@@ -166,7 +168,6 @@ contains
     end if
     t%n_frequencies = int(t%lines, i8) * (box(3) / 2 + 1) * t%half(1)
     t%slab_doubles = max(int(t%planes, i8) * t%half(2) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
-    t%spectrum_doubles = 2 * int(t%lines, i8) * (box(3) / 2 + 1) * t%row
     t%transposed_doubles = max(int(t%lines, i8) * data(3) * t%row, int(forward_alloc, i8), int(backward_alloc, i8), 1_i8)
     ! Runs of fields with equal signs.
     allocate (t%run_first(t%fields), t%run_count(t%fields), t%run_sign(2, t%fields))
@@ -201,7 +202,7 @@ contains
     type(mirror_buffer_t), intent(inout) :: b
     logical, intent(out) :: made
     integer(i8) :: region_a, doubles
-    region_a = 4 * ((max(t%slab_doubles, t%spectrum_doubles) + 3) / 4)   ! 32-byte aligned region B
+    region_a = 4 * ((t%slab_doubles + 3) / 4)   ! 32-byte aligned region B
     doubles = region_a + t%transposed_doubles
     b%memory = fftw_alloc_real(int(doubles, C_SIZE_T))
     made = c_associated(b%memory)
@@ -213,15 +214,20 @@ contains
     made = c_associated(b%scratch_memory)
     if (.not. made) return
     call c_f_pointer(b%scratch_memory, b%scratch, [t%box(3), t%row / 2])
-    call c_f_pointer(b%memory, b%spectrum, [int(t%row, i8), max(t%lines * (t%box(3) / 2 + 1), 1_i8)])
+    b%spectrum_memory = fftw_alloc_real(2 * int(t%row, C_SIZE_T) * (t%box(3) / 2 + 1))
+    made = c_associated(b%spectrum_memory)
+    if (.not. made) return
+    call c_f_pointer(b%spectrum_memory, b%spectrum, [t%row, t%box(3) / 2 + 1])
   end subroutine make_mirror_buffer
 
   subroutine destroy_mirror_buffer(b)
     type(mirror_buffer_t), intent(inout) :: b
     if (c_associated(b%memory)) call fftw_free(b%memory)
     if (c_associated(b%scratch_memory)) call fftw_free(b%scratch_memory)
+    if (c_associated(b%spectrum_memory)) call fftw_free(b%spectrum_memory)
     b%memory = C_NULL_PTR
     b%scratch_memory = C_NULL_PTR
+    b%spectrum_memory = C_NULL_PTR
     b%scratch => null()
     b%all => null()
     b%slab => null()
@@ -323,68 +329,78 @@ contains
     end if
   end subroutine pass_kind
 
-  !> The data planes of buffer b (zero off the fundamental sites) of class `class` -> its
-  !> spectrum (b%spectrum); the planes are overwritten.
-  subroutine mirror_forward(t, b, class)
+  !> The data planes of buffer b (zero off the fundamental sites) of class `class` -> the
+  !> transposed data planes, transformed along the fast and the middle axis; the planes are
+  !> overwritten. The slow axis follows line by line (forward_line).
+  subroutine forward_planes(t, b, class)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: class
-    integer :: axis, line, plane
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    integer :: axis
     do axis = 1, 2
       call run_passes(t, b, class, axis, forward)
     end do
     call fftw_mpi_execute_r2r(t%transpose_forward, b%memory, c_loc(b%transposed))
-    ! The slow axis, middle line by middle line: two real lines a, b at once as the complex line
-    ! z = a + i b, transposed into the scratch (zero beyond the data planes); their spectra follow
-    ! from Z's, A(k) = (Z(k) + conj Z(n - k)) / 2 and B(k) = (Z(k) - conj Z(n - k)) / 2i, k = 0 ..
-    ! n/2 (a real FFT of each at half the cost).
-    if (t%lines == 0) return
-    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
-    do line = 1, int(t%lines)
-      do plane = 1, t%data(3)
-        b%scratch(plane, :) = z(:, plane, line)
-      end do
-      b%scratch(t%data(3) + 1:, :) = (0.0_dp, 0.0_dp)
-      call fftw_execute_dft(t%slow_forward, c_loc(b%scratch), c_loc(b%scratch))
-      call split_pairs(t, b, line)
-    end do
-  end subroutine mirror_forward
+  end subroutine forward_planes
 
-  !> The spectrum of buffer b (overwritten) -> its data planes (b%slab) of class `class`, right
-  !> on the fundamental sites.
-  subroutine mirror_backward(t, b, class)
+  !> Middle line `line` (1 .. t%lines) of the transposed planes -> its spectrum (b%spectrum). Two
+  !> real lines a, b at once as the complex line z = a + i b, transposed into the scratch (zero
+  !> beyond the data planes); their spectra follow from Z's, A(k) = (Z(k) + conj Z(n - k)) / 2
+  !> and B(k) = (Z(k) - conj Z(n - k)) / 2i, k = 0 .. n/2 (a real FFT of each at half the cost).
+  !> One line at a time, so that the spectrum is still in cache for the kernel's product.
+  subroutine forward_line(t, b, line)
+    type(mirror_transform_t), intent(in) :: t
+    type(mirror_buffer_t), intent(inout) :: b
+    integer, intent(in) :: line
+    integer :: plane
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
+    do plane = 1, t%data(3)
+      b%scratch(plane, :) = z(:, plane, line)
+    end do
+    b%scratch(t%data(3) + 1:, :) = (0.0_dp, 0.0_dp)
+    call fftw_execute_dft(t%slow_forward, c_loc(b%scratch), c_loc(b%scratch))
+    call split_pairs(t, b)
+  end subroutine forward_line
+
+  !> The spectrum of middle line `line` (b%spectrum, overwritten) -> the line's transposed data
+  !> planes.
+  subroutine backward_line(t, b, line)
+    type(mirror_transform_t), intent(in) :: t
+    type(mirror_buffer_t), intent(inout) :: b
+    integer, intent(in) :: line
+    integer :: plane
+    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
+    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
+    call join_pairs(t, b)
+    call fftw_execute_dft(t%slow_backward, c_loc(b%scratch), c_loc(b%scratch))
+    do plane = 1, t%data(3)
+      z(:, plane, line) = b%scratch(plane, :)
+    end do
+  end subroutine backward_line
+
+  !> The transposed data planes of every line (backward_line) -> the data planes (b%slab) of
+  !> class `class`, right on the fundamental sites.
+  subroutine backward_planes(t, b, class)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: class
-    integer :: axis, line, plane
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
-    if (t%lines > 0) call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
-    do line = 1, int(t%lines)
-      call join_pairs(t, b, line)
-      call fftw_execute_dft(t%slow_backward, c_loc(b%scratch), c_loc(b%scratch))
-      do plane = 1, t%data(3)
-        z(:, plane, line) = b%scratch(plane, :)
-      end do
-    end do
+    integer :: axis
     call fftw_mpi_execute_r2r(t%transpose_backward, c_loc(b%transposed), b%memory)
     do axis = 2, 1, -1
       call run_passes(t, b, class, axis, backward)
     end do
-  end subroutine mirror_backward
+  end subroutine backward_planes
 
-  !> The spectra of the pairs' two real lines (Z in the scratch) of middle line `line` into the
-  !> spectrum.
-  subroutine split_pairs(t, b, line)
+  !> The spectra of the pairs' two real lines (Z in the scratch) into the spectrum.
+  subroutine split_pairs(t, b)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
-    integer, intent(in) :: line
-    integer :: n, k, p
-    integer(i8) :: row
+    integer :: n, k, p, row
     complex(C_DOUBLE_COMPLEX) :: here, there
     n = t%box(3)
     do k = 0, n / 2
-      row = k + 1 + (line - 1) * int(n / 2 + 1, i8)
+      row = k + 1
       do p = 1, t%row / 2
         here = b%scratch(k + 1, p)
         there = conjg(b%scratch(mod(n - k, n) + 1, p))
@@ -394,18 +410,16 @@ contains
     end do
   end subroutine split_pairs
 
-  !> The inverse of split_pairs for middle line `line`: Z(k) = A(k) + i B(k) for every k (A(n - k)
-  !> = conj A(k)) into the scratch, whose inverse transform is then a + i b.
-  subroutine join_pairs(t, b, line)
+  !> The inverse of split_pairs: Z(k) = A(k) + i B(k) for every k (A(n - k) = conj A(k)) into the
+  !> scratch, whose inverse transform is then a + i b.
+  subroutine join_pairs(t, b)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
-    integer, intent(in) :: line
-    integer :: n, k, p
-    integer(i8) :: row
+    integer :: n, k, p, row
     complex(C_DOUBLE_COMPLEX), parameter :: i = (0.0_dp, 1.0_dp)
     n = t%box(3)
     do k = 0, n / 2
-      row = k + 1 + (line - 1) * int(n / 2 + 1, i8)
+      row = k + 1
       do p = 1, t%row / 2
         b%scratch(k + 1, p) = b%spectrum(2 * p - 1, row) + i * b%spectrum(2 * p, row)
         if (k > 0 .and. 2 * k /= n) b%scratch(n - k + 1, p) = conjg(b%spectrum(2 * p - 1, row)) + &
