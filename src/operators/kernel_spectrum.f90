@@ -40,14 +40,17 @@ module beadmob_kernel_spectrum
   integer, parameter :: chunk_lines = 256
   !> Entries per rank and round at most.
   integer, parameter :: max_round_entries = 16
+  !> Doubles of scratch the transform allocates for itself when the one it is given holds fewer
+  !> entries per round (64 MiB).
+  integer(i8), parameter :: own_scratch_doubles = 8388608_i8
 
 contains
 
   !> Collective. kernel(e, g) = scale * (the real part of K^_e, or for an entry odd under
   !> inversion the imaginary part) at this rank's frequencies g ([lines][k_slow <= n_slow/2]
   !> [k_fast <= n_fast/2], the fast index first), from the compact block table. `scratch`: memory
-  !> the rounds may use (the operator's FFT buffer, not yet needed); more is allocated only if it
-  !> cannot hold one entry per rank. reporting (rank 0): a progress line about every quarter of
+  !> the rounds may use (the operator's FFT buffer, not yet needed); a scratch of its own (up to
+  !> 64 MiB, or one entry per rank) where that holds more entries per round. reporting (rank 0): a progress line about every quarter of
   !> the entries, timed from `start` (MPI_Wtime).
   subroutine kernel_spectrum(comm, table, octant, scale, scratch, kernel, err, reporting, start)
     integer, intent(in) :: comm
@@ -60,7 +63,7 @@ contains
     logical, intent(in) :: reporting
     real(dp), intent(in) :: start
     integer :: m(3), n_entries, n_ranks, rank, per_rank, round, n_rounds, mine, first_mine, q, ierr, count_q, first_q, b, &
-               failed, done
+               failed, done, wanted
     integer(i8) :: points, kept, per_entry, g, offset
     integer(C_INTPTR_T) :: my_lines(2)
     integer(C_INTPTR_T), allocatable :: all_lines(:, :)
@@ -89,20 +92,29 @@ contains
     ! lines) and what it receives (its lines, from every rank).
     per_entry = points + octant%box(2) * kept + n_ranks * octant%lines * kept
     per_rank = int(min(int(max_round_entries, i8), size(scratch, kind=i8) / per_entry))
+    ! Fewer, larger rounds where a small scratch of its own does it: each round costs an
+    ! all-to-all and a pass of plans (ring_1mm: 17 rounds in its FFT buffer, 5 in 64 MiB).
+    wanted = int(min(int(max_round_entries, i8), own_scratch_doubles / per_entry))
     ! MPI counts and offsets are default integers.
     per_rank = int(min(int(per_rank, i8), int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)))
+    wanted = int(min(int(wanted, i8), int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)))
     call MPI_Allreduce(MPI_IN_PLACE, per_rank, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
+    call MPI_Allreduce(MPI_IN_PLACE, wanted, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
     room => scratch
-    if (per_rank < 1) then
-      per_rank = 1
-      allocate (own_scratch(per_entry), stat=failed)
+    wanted = max(wanted, 1)
+    if (per_rank < wanted) then
+      allocate (own_scratch(per_entry * wanted), stat=failed)
       call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
-      if (failed /= 0) then
-        call raise(err, 'could not allocate the FFT kernel''s scratch (' // str(8.0_dp * per_entry / 1.0e9_dp) // &
+      if (failed == 0) then
+        per_rank = wanted
+        room => own_scratch
+      else if (per_rank < 1) then
+        call raise(err, 'could not allocate the FFT kernel''s scratch (' // str(8.0_dp * per_entry * wanted / 1.0e9_dp) // &
                    ' GB per rank)')
         return
+      else if (allocated(own_scratch)) then   ! not on every rank: the given scratch it is
+        deallocate (own_scratch)
       end if
-      room => own_scratch
     end if
     ! The entries of a round side by side at each point: every pass reads and writes them together.
     values(1:per_rank, 1:points) => room(1:points * per_rank)
