@@ -48,7 +48,9 @@ module beadmob_fft_operator
   use beadmob_fftw
   use beadmob_lapack, only: dgemm
   use beadmob_pruned_transform, only: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, &
-                                      transform_forward, transform_backward, destroy_pruned_transform
+                                      pruned_forward_planes => forward_planes, pruned_forward_line => forward_line, &
+                                      pruned_backward_line => backward_line, pruned_backward_planes => backward_planes, &
+                                      destroy_pruned_transform
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
@@ -57,7 +59,8 @@ module beadmob_fft_operator
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
   use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
-                                      forward_planes, forward_line, backward_line, backward_planes, &
+                                      mirror_forward_planes => forward_planes, mirror_forward_line => forward_line, &
+                                      mirror_backward_line => backward_line, mirror_backward_planes => backward_planes, &
                                       make_mirror_buffer, destroy_mirror_buffer, &
                                       destroy_mirror_transform, n_classes, class_signs
   use beadmob_mirror_classes, only: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, &
@@ -227,14 +230,15 @@ contains
 
   !> multipole_operator_t%cost (docs/scaling.md lists the terms): the canonical blocks (freed
   !> once the kernel is transformed), the packed kernel of this rank's frequencies, the FFT buffers
-  !> (spectrum and data planes, pruned_transform.f90, and the batch's copies of them, make_copies)
+  !> (data planes, transposed data planes and one middle line's spectrum, pruned_transform.f90,
+  !> and the batch's copies of them, make_copies)
   !> and FFTW-MPI's transposes; the companion's
   !> buffer. Time: quadrature per canonical block, kernel fill per site and entry, the kernel's
   !> octant transforms; per product the two pruned transforms of nb fields and the kernel product.
   pure subroutine fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, sites, freq_planes, data_planes, frequencies, half, pruned
+    real(dp) :: nb, packed, sites, freq_planes, data_planes, half, pruned
     integer :: data(3)
     if (count(size%mirrors) >= 2) then
       call mirrored_fft_cost(size, cost)
@@ -256,10 +260,9 @@ contains
     half = cost%fft_box(1) / 2 + 1
     data_planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     freq_planes = real(ceiling(real(cost%fft_box(2), dp) / size%n_ranks), dp)
-    frequencies = freq_planes * cost%fft_box(3) * half
     cost%kernel = 8 * packed * freq_planes * (cost%fft_box(3) / 2 + 1) * half   ! k_slow <= n_slow / 2
-    cost%fft_buffer = 16 * nb * max(frequencies, &
-                                    (freq_planes * data(3) + data_planes * cost%fft_box(2)) * half)
+    cost%fft_buffer = 16 * nb * ((freq_planes * data(3) + data_planes * cost%fft_box(2)) * half &
+                                 + 2 * cost%fft_box(3) * half)   ! and one middle line's scratch and spectrum
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     call batch_and_setup_cost(size, freq_planes, cost)
     cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks
@@ -1158,7 +1161,7 @@ contains
     PetscScalar, pointer :: slab(:)
     PetscErrorCode :: ierr
     type(pruned_transform_t), pointer :: t
-    integer :: j, nb
+    integer :: j, nb, line
 
     if (op%mirrored) then
       call mirrored_product(op, x, y)
@@ -1178,17 +1181,27 @@ contains
     do j = 1, size(x)
       PetscCallA(VecGetArrayF90(slab_of(j), slab, ierr))
       t => transform_of(j)
-      call transform_forward(t)
+      call pruned_forward_planes(t)
       spectra(j)%values => t%spectrum
     end do
-    if (associated(op%shared_kernel)) then
-      call multiply_spectra(op, op%shared_kernel, spectra, op%kernel_map)
-    else
-      call multiply_spectra(op, op%kernel, spectra)
-    end if
+    ! The slow axis, the kernel's product and back, middle line by middle line: each line's
+    ! spectra stay in cache between the transforms and the product.
+    do line = 1, int(op%transform%lines)
+      do j = 1, size(x)
+        call pruned_forward_line(transform_of(j), line)
+      end do
+      if (associated(op%shared_kernel)) then
+        call multiply_spectra(op, op%shared_kernel, spectra, line, op%kernel_map)
+      else
+        call multiply_spectra(op, op%kernel, spectra, line)
+      end if
+      do j = 1, size(x)
+        call pruned_backward_line(transform_of(j), line)
+      end do
+    end do
     do j = 1, size(x)
       t => transform_of(j)
-      call transform_backward(t)
+      call pruned_backward_planes(t)
       PetscCallA(VecRestoreArrayF90(slab_of(j), slab, ierr))
     end do
     do j = 1, size(x)
@@ -1220,46 +1233,46 @@ contains
     end function slab_of
   end subroutine batched_product
 
-  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f of every spectrum. K^(f) is
-  !> kernel(:, g) (or with `map`, a companion, kernel(map, g), gathered into a fixed-size copy) at
-  !> the kept frequency g of f, times D on both sides where f is the mirror image of g
-  !> (k_slow > n_slow / 2). A kept frequency and its image, in every spectrum, are multiplied
-  !> together: one pass over the kernel for all.
-  subroutine multiply_spectra(op, kernel, spectra, map)
+  !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f of middle line `line` of every
+  !> spectrum (the line's, pruned_transform.f90). K^(f) is kernel(:, g) (or with `map`, a
+  !> companion, kernel(map, g), gathered into a fixed-size copy) at the kept frequency g of f,
+  !> times D on both sides where f is the mirror image of g (k_slow > n_slow / 2). A kept frequency
+  !> and its image, in every spectrum, are multiplied together: one pass over the line's kernel
+  !> for all.
+  subroutine multiply_spectra(op, kernel, spectra, line, map)
     type(fft_operator_t), intent(in) :: op
     real(dp), intent(in), target, contiguous :: kernel(:, :)
     type(spectrum_ref_t), intent(in) :: spectra(:)
+    integer, intent(in) :: line
     integer, intent(in), optional :: map(:)
     real(dp), target :: gathered(op%block_size * (op%block_size + 1) / 2)
     real(dp), pointer, contiguous :: column(:)
     complex(C_DOUBLE_COMPLEX), target :: alone(op%block_size)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: image_values(:)
-    integer(i8) :: g, f, image, line, slow, fast, n_slow, half
+    integer(i8) :: g, f, image, slow, fast, n_slow, half
     integer :: j
     n_slow = op%box(3)
     half = op%transform%half
-    g = 0
-    do line = 0, op%transform%lines - 1
-      do slow = 0, n_slow / 2
-        do fast = 0, half - 1
-          g = g + 1
-          if (present(map)) then
-            gathered = kernel(map, g)
-            column => gathered
+    g = int(line - 1, i8) * (n_slow / 2 + 1) * half   ! the line's first kept frequency
+    do slow = 0, n_slow / 2
+      do fast = 0, half - 1
+        g = g + 1
+        if (present(map)) then
+          gathered = kernel(map, g)
+          column => gathered
+        else
+          column => kernel(:, g)
+        end if
+        f = 1 + fast + half * slow
+        image = 1 + fast + half * (n_slow - slow)
+        do j = 1, size(spectra)
+          if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image: a zero stands in
+            alone = 0
+            image_values => alone
           else
-            column => kernel(:, g)
+            image_values => spectra(j)%values(:, image)
           end if
-          f = 1 + fast + half * (slow + n_slow * line)
-          image = 1 + fast + half * (n_slow - slow + n_slow * line)
-          do j = 1, size(spectra)
-            if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image: a zero stands in
-              alone = 0
-              image_values => alone
-            else
-              image_values => spectra(j)%values(:, image)
-            end if
-            call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), image_values)
-          end do
+          call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), image_values)
         end do
       end do
     end do
@@ -1513,13 +1526,13 @@ contains
         call fold_class(op%classes, x(item_vector(first + k - 1)), item_class(first + k - 1), op%buffer_slabs(k))
         ! The FFTs write the array behind the PETSc vector: bracketed by Get/Restore.
         PetscCallA(VecGetArrayF90(op%buffer_slabs(k), slab, ierr))
-        call forward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
+        call mirror_forward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
       end do
       ! The slow axis, the kernel's product and back, middle line by middle line: each line's
       ! spectra stay in cache between the transforms and the product.
       do line = 1, int(op%reduced%lines)
         do k = 1, n
-          call forward_line(op%reduced, op%buffers(k), line)
+          call mirror_forward_line(op%reduced, op%buffers(k), line)
         end do
         if (associated(op%shared_kernel)) then
           call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), line, op%kernel_map)
@@ -1527,11 +1540,11 @@ contains
           call multiply_classes(op, op%kernel, item_class(first:first + n - 1), line)
         end if
         do k = 1, n
-          call backward_line(op%reduced, op%buffers(k), line)
+          call mirror_backward_line(op%reduced, op%buffers(k), line)
         end do
       end do
       do k = 1, n
-        call backward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
+        call mirror_backward_planes(op%reduced, op%buffers(k), item_class(first + k - 1))
         PetscCallA(VecRestoreArrayF90(op%buffer_slabs(k), slab, ierr))
         j = item_vector(first + k - 1)
         call unfold_class(op%classes, op%buffer_slabs(k), item_class(first + k - 1), y(j), started(j))

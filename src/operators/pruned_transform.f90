@@ -11,11 +11,18 @@
 !> [fields] in C order with the middle-axis lines split over the ranks (FFTW-MPI's transposed
 !> layout), where the kernel (kernel_spectrum.f90) multiplies it frequency by frequency.
 !>
-!> Memory: one aligned buffer. The spectrum starts at its beginning; the real data planes
-!> ([planes][n_middle][2 (n_fast/2 + 1)][fields], FFTW's in-place r2c padding, the planes split
-!> over the ranks in FFTW's default blocks) sit behind the region the transposes write, so no
-!> transpose reads and writes the same memory. Together about the size of the whole transform's
-!> in-place buffer.
+!> The slow axis runs one middle line at a time (forward_line, backward_line): the line's data
+!> planes are transposed into a scratch where each slow-axis line is contiguous (FFTW's estimated
+!> plans for lines strided across the row cost up to 3.5 times its measured ones, those for
+!> contiguous lines no more: bench/fft_layout), transformed, and the line's spectrum written
+!> beside it, where the caller multiplies it by the kernel while it is in cache, before the way
+!> back. So the whole spectrum is never stored.
+!>
+!> Memory: one aligned buffer, and a scratch and a spectrum of one middle line. The transposed
+!> data planes ([lines][data planes][n_fast/2 + 1][fields]) start at the buffer's beginning; the
+!> real data planes ([planes][n_middle][2 (n_fast/2 + 1)][fields], FFTW's in-place r2c padding, the
+!> planes split over the ranks in FFTW's default blocks) sit behind the region the transposes
+!> write, so no transpose reads and writes the same memory.
 module beadmob_pruned_transform
   use, intrinsic :: iso_c_binding
   use beadmob_kinds, only: dp, i8
@@ -25,8 +32,8 @@ module beadmob_pruned_transform
   use mpi, only: MPI_Allreduce, MPI_IN_PLACE, MPI_INTEGER, MPI_SUM
   implicit none
   private
-  public :: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, transform_forward, &
-            transform_backward, destroy_pruned_transform
+  public :: pruned_transform_t, size_pruned_transform, make_pruned_plans, free_pruned_plans, forward_planes, &
+            forward_line, backward_line, backward_planes, destroy_pruned_transform
 
   type :: pruned_transform_t
     integer :: fields = 0
@@ -35,15 +42,19 @@ module beadmob_pruned_transform
     integer :: half = 1                    ! complex numbers of a fast-axis line: box(1) / 2 + 1
     !> This rank's data planes (slow axis) and spectrum lines (middle axis)
     integer(C_INTPTR_T) :: planes = 0, first_plane = 0, lines = 0, first_line = 0
-    integer(i8) :: n_frequencies = 0
-    type(C_PTR) :: buffer = C_NULL_PTR
-    !> The data planes (real) and the spectrum (fields, frequencies)
+    integer(i8) :: n_frequencies = 0       ! this rank's: lines * n_slow * half
+    type(C_PTR) :: buffer = C_NULL_PTR, line_buffer = C_NULL_PTR
+    !> The data planes (real) and the transposed data planes ([lines][data planes][row])
     real(C_DOUBLE), pointer, contiguous :: slab(:) => null()
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()   ! the whole buffer
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: transposed(:, :, :) => null()
+    !> One middle line: its slow-axis lines, each contiguous (k_slow, row number), and its
+    !> spectrum (field, 1 + k_fast + half k_slow)
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: scratch(:, :) => null()
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: spectrum(:, :) => null()
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: flat_spectrum(:) => null()   ! the same, 0-based
-    !> fast r2c, middle forward, transpose, slow forward, slow backward, transpose back, middle
-    !> backward, fast c2r
+    !> fast r2c, middle forward, transpose, slow forward, slow backward (on the scratch),
+    !> transpose back, middle backward, fast c2r
     type(C_PTR) :: plans(8) = C_NULL_PTR
     integer(i8) :: slab_offset = 0         ! doubles before the data planes in the buffer
   end type pruned_transform_t
@@ -60,7 +71,8 @@ contains
     type(pruned_transform_t), intent(inout) :: t
     type(error_t), intent(inout) :: err
     integer(C_INTPTR_T) :: row, forward_alloc, backward_alloc, back_lines(2), back_planes(2)
-    integer(i8) :: compact, doubles
+    integer(i8) :: compact, doubles, line_size
+    real(C_DOUBLE), pointer, contiguous :: line_doubles(:)
 
     t%fields = fields
     t%box = box
@@ -84,18 +96,23 @@ contains
     ! data planes behind them (32-byte aligned).
     compact = max(int(forward_alloc, i8), int(backward_alloc, i8), 2 * int(t%lines, i8) * t%data(3) * row)
     t%slab_offset = 4 * ((compact + 3) / 4)
-    doubles = max(2 * t%n_frequencies * fields, &
-                  t%slab_offset + max(int(forward_alloc, i8), int(backward_alloc, i8), &
-                                      2 * int(t%planes, i8) * box(2) * row, 1_i8))
+    doubles = t%slab_offset + max(int(forward_alloc, i8), int(backward_alloc, i8), 2 * int(t%planes, i8) * box(2) * row, &
+                                  1_i8)
     t%buffer = fftw_alloc_real(int(doubles, C_SIZE_T))
-    if (.not. c_associated(t%buffer)) then
-      call raise(err, 'could not allocate the FFT buffer (' // str(8.0_dp * doubles / 1.0e9_dp) // ' GB)')
+    line_size = 2 * int(box(3), i8) * row   ! doubles of the scratch, and of the spectrum
+    t%line_buffer = fftw_alloc_real(int(2 * line_size, C_SIZE_T))
+    if (.not. c_associated(t%buffer) .or. .not. c_associated(t%line_buffer)) then
+      call raise(err, 'could not allocate the FFT buffer (' // str(8.0_dp * (doubles + 2 * line_size) / 1.0e9_dp) // &
+                 ' GB)')
       return
     end if
     call c_f_pointer(t%buffer, t%all, [doubles])
     t%slab => t%all(t%slab_offset + 1:t%slab_offset + 2 * int(t%planes, i8) * box(2) * row)
-    call c_f_pointer(t%buffer, t%spectrum, [int(fields, i8), max(t%n_frequencies, 1_i8)])
-    call c_f_pointer(t%buffer, t%flat_spectrum, [fields * max(t%n_frequencies, 1_i8)])
+    call c_f_pointer(t%buffer, t%transposed, [row, int(t%data(3), i8), max(int(t%lines, i8), 1_i8)])
+    call c_f_pointer(t%line_buffer, t%scratch, [int(box(3), i8), row])
+    call c_f_pointer(t%line_buffer, line_doubles, [2 * line_size])
+    call c_f_pointer(c_loc(line_doubles(line_size + 1)), t%spectrum, [int(fields, i8), int(box(3), i8) * t%half])
+    call c_f_pointer(c_loc(line_doubles(line_size + 1)), t%flat_spectrum, [line_size / 2])
     t%flat_spectrum(0:) => t%flat_spectrum
   end subroutine size_pruned_transform
 
@@ -137,12 +154,13 @@ contains
                                                          t%plans(middle_forward), t%plans(middle_backward)]))
     end if
     if (t%lines > 0) then
-      ! Slow axis, whole, on the spread spectrum (complex).
-      line(1) = fftw_iodim(t%box(3), row, row)
-      planes(1) = fftw_iodim(row, 1, 1)
-      planes(2) = fftw_iodim(int(t%lines), row * t%box(3), row * t%box(3))
-      t%plans(slow_forward) = fftw_plan_guru_dft(1, line, 2, planes, start, start, FFTW_FORWARD, flags)
-      t%plans(slow_backward) = fftw_plan_guru_dft(1, line, 2, planes, start, start, FFTW_BACKWARD, flags)
+      ! Slow axis, whole, on the scratch's contiguous lines of one middle line (complex).
+      line(1) = fftw_iodim(t%box(3), 1, 1)
+      planes(1) = fftw_iodim(row, t%box(3), t%box(3))
+      t%plans(slow_forward) = fftw_plan_guru_dft(1, line, 1, planes(1:1), t%line_buffer, t%line_buffer, FFTW_FORWARD, &
+                                                 flags)
+      t%plans(slow_backward) = fftw_plan_guru_dft(1, line, 1, planes(1:1), t%line_buffer, t%line_buffer, &
+                                                  FFTW_BACKWARD, flags)
       missing = missing + count(.not. c_associated_all([t%plans(slow_forward), t%plans(slow_backward)]))
     end if
     ! Collective: the transposes of the data planes (row = 2 row doubles per element).
@@ -169,47 +187,61 @@ contains
     end do
   end function c_associated_all
 
-  !> The data planes (t%slab, zero off the beads) -> the spectrum (t%spectrum). The data planes
-  !> are overwritten.
-  subroutine transform_forward(t)
+  !> The data planes (t%slab, zero off the beads) -> the transposed data planes, transformed
+  !> along the fast and the middle axis; the data planes are overwritten. The slow axis follows
+  !> line by line (forward_line).
+  subroutine forward_planes(t)
     type(pruned_transform_t), intent(inout) :: t
-    integer(i8) :: row, line, plane
     if (t%planes > 0) then
       call fftw_execute(t%plans(fast_forward))
       call fftw_execute(t%plans(middle_forward))
     end if
     call fftw_execute(t%plans(transpose_forward))
-    ! [lines][data planes][row] -> [lines][slow][row], zero beyond the data planes; backwards,
-    ! since each line moves to a later place.
-    row = int(t%half, i8) * t%fields
-    do line = t%lines - 1, 0, -1
-      do plane = t%data(3) - 1, 0, -1
-        call move_row(t%flat_spectrum, (line * t%data(3) + plane) * row, (line * t%box(3) + plane) * row, row)
-      end do
-      t%flat_spectrum((line * t%box(3) + t%data(3)) * row:(line + 1) * t%box(3) * row - 1) = (0.0_C_DOUBLE, 0.0_C_DOUBLE)
-    end do
-    if (t%lines > 0) call fftw_execute(t%plans(slow_forward))
-  end subroutine transform_forward
+  end subroutine forward_planes
 
-  !> The spectrum (t%spectrum, overwritten) -> the data planes (t%slab), on the data rows of
-  !> each data plane (the other rows hold whatever the middle-axis pass left).
-  subroutine transform_backward(t)
+  !> Middle line `line` (1 .. t%lines) of the transposed data planes -> its spectrum (t%spectrum),
+  !> through the scratch: each row number's slow-axis line contiguous, zero beyond the data planes.
+  subroutine forward_line(t, line)
     type(pruned_transform_t), intent(inout) :: t
-    integer(i8) :: row, line, plane
-    if (t%lines > 0) call fftw_execute(t%plans(slow_backward))
-    ! [lines][slow][row] -> [lines][data planes][row]; forwards, each moves to an earlier place.
-    row = int(t%half, i8) * t%fields
-    do line = 0, t%lines - 1
-      do plane = 0, t%data(3) - 1
-        call move_row(t%flat_spectrum, (line * t%box(3) + plane) * row, (line * t%data(3) + plane) * row, row)
-      end do
+    integer, intent(in) :: line
+    integer :: plane, slow, row
+    row = t%half * t%fields
+    do plane = 1, t%data(3)
+      t%scratch(plane, :) = t%transposed(:, plane, line)
     end do
+    t%scratch(t%data(3) + 1:, :) = (0.0_C_DOUBLE, 0.0_C_DOUBLE)
+    call fftw_execute(t%plans(slow_forward))
+    do slow = 0, t%box(3) - 1
+      t%flat_spectrum(slow * row:(slow + 1) * row - 1) = t%scratch(slow + 1, :)
+    end do
+  end subroutine forward_line
+
+  !> The spectrum of middle line `line` (t%spectrum, overwritten) -> the line's transposed data
+  !> planes.
+  subroutine backward_line(t, line)
+    type(pruned_transform_t), intent(inout) :: t
+    integer, intent(in) :: line
+    integer :: plane, slow, row
+    row = t%half * t%fields
+    do slow = 0, t%box(3) - 1
+      t%scratch(slow + 1, :) = t%flat_spectrum(slow * row:(slow + 1) * row - 1)
+    end do
+    call fftw_execute(t%plans(slow_backward))
+    do plane = 1, t%data(3)
+      t%transposed(:, plane, line) = t%scratch(plane, :)
+    end do
+  end subroutine backward_line
+
+  !> The transposed data planes of every line (backward_line) -> the data planes (t%slab), on the
+  !> data rows of each data plane (the other rows hold whatever the middle-axis pass left).
+  subroutine backward_planes(t)
+    type(pruned_transform_t), intent(inout) :: t
     call fftw_execute(t%plans(transpose_backward))
     if (t%planes > 0) then
       call fftw_execute(t%plans(middle_backward))
       call fftw_execute(t%plans(fast_backward))
     end if
-  end subroutine transform_backward
+  end subroutine backward_planes
 
   subroutine free_pruned_plans(t)
     type(pruned_transform_t), intent(inout) :: t
@@ -224,26 +256,15 @@ contains
     type(pruned_transform_t), intent(inout) :: t
     call free_pruned_plans(t)
     if (c_associated(t%buffer)) call fftw_free(t%buffer)
+    if (c_associated(t%line_buffer)) call fftw_free(t%line_buffer)
     t%buffer = C_NULL_PTR
+    t%line_buffer = C_NULL_PTR
     t%slab => null()
     t%all => null()
+    t%transposed => null()
+    t%scratch => null()
     t%spectrum => null()
     t%flat_spectrum => null()
   end subroutine destroy_pruned_transform
 
-  !> flat(to : to + n - 1) <- flat(from : from + n - 1); overlapping moves are safe either way.
-  pure subroutine move_row(flat, from, to, n)
-    complex(C_DOUBLE_COMPLEX), intent(inout) :: flat(0:)
-    integer(i8), intent(in) :: from, to, n
-    integer(i8) :: k
-    if (to > from) then
-      do k = n - 1, 0, -1
-        flat(to + k) = flat(from + k)
-      end do
-    else if (to < from) then
-      do k = 0, n - 1
-        flat(to + k) = flat(from + k)
-      end do
-    end if
-  end subroutine move_row
 end module beadmob_pruned_transform
