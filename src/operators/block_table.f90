@@ -23,7 +23,7 @@ module beadmob_block_table
   implicit none
   private
   public :: block_table_t, make_block_table, table_block_index, block_cache_key
-  public :: block_formula_version, lattice_block, lattice_block_entries, canonical_count
+  public :: block_formula_version, lattice_block, lattice_block_entries, canonical_block_entries, canonical_count
 
   !> Largest block store allowed per rank (bytes) before refusing an off-lattice model.
   real(dp), parameter :: max_store_bytes = 8.0e9_dp
@@ -373,12 +373,22 @@ contains
     type(block_table_t), intent(in) :: table
     integer, intent(in) :: d(3), rows(:), columns(:)
     real(dp), intent(out) :: values(:)
-    integer :: c(3), s, e, a, b, k, r, t
-    real(dp) :: inner
+    integer :: c(3), s
     values = 0.0_dp
     if (all(d == 0)) return
     call canonical_displacement(d, c, s)
-    k = table%canonical_id(c(1), c(2), c(3))
+    call canonical_block_entries(table, table%canonical_id(c(1), c(2), c(3)), s, rows, columns, values)
+  end subroutine lattice_block_entries
+
+  !> values(e) = (D_s A_k D_s^T)(rows(e), columns(e)): lattice_block_entries of the displacement
+  !> that lattice symmetry s makes of canonical displacement k (canonical_displacement).
+  pure subroutine canonical_block_entries(table, k, s, rows, columns, values)
+    type(block_table_t), intent(in) :: table
+    integer, intent(in) :: k, s, rows(:), columns(:)
+    real(dp), intent(out) :: values(:)
+    integer :: e, a, b, r, t
+    real(dp) :: inner
+    values = 0.0_dp
     do e = 1, size(rows)
       r = rows(e)
       t = columns(e)
@@ -391,7 +401,7 @@ contains
         values(e) = values(e) + table%transform_value(a, r, s) * inner
       end do
     end do
-  end subroutine lattice_block_entries
+  end subroutine canonical_block_entries
 
   subroutine fill_pair_store(comm, basis, centres, first, n_local, table, err)
     integer, intent(in) :: comm

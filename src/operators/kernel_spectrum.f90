@@ -18,7 +18,8 @@ module beadmob_kernel_spectrum
   use beadmob_strings, only: str
   use beadmob_fftw
   use beadmob_progress, only: progress_line, progress_seconds
-  use beadmob_block_table, only: block_table_t, lattice_block_entries
+  use beadmob_block_table, only: block_table_t, canonical_block_entries
+  use beadmob_lattice_symmetry, only: canonical_displacement
   use mpi, only: MPI_Allgather, MPI_Allreduce, MPI_Alltoallv, MPI_Comm_rank, MPI_Comm_size, MPI_IN_PLACE, &
                  MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, MPI_MIN, MPI_MAX, MPI_Wtime
   implicit none
@@ -71,6 +72,8 @@ contains
     real(dp), allocatable :: factor(:)
     real(dp), allocatable, target :: own_scratch(:)
     real(dp), pointer, contiguous :: values(:, :), sent(:), received(:), room(:)
+    integer(i8), allocatable :: by_block(:)
+    integer, allocatable :: block_of(:), symmetry_of(:)
 
     call MPI_Comm_size(comm, n_ranks, ierr)
     call MPI_Comm_rank(comm, rank, ierr)
@@ -124,11 +127,12 @@ contains
               receive_offsets(0:n_ranks - 1), factor(per_rank))
 
     n_rounds = (n_entries - 1) / (per_rank * n_ranks) + 1
+    call order_by_block(table, octant, by_block, block_of, symmetry_of)
     do round = 0, n_rounds - 1
       first_mine = round * per_rank * n_ranks + rank * per_rank + 1
       mine = max(0, min(per_rank, n_entries - first_mine + 1))
       if (mine > 0) then
-        call fill_octant(table, octant, first_mine, mine, values)
+        call fill_octant(table, octant, first_mine, mine, by_block, block_of, symmetry_of, values)
         call transform_octant(octant, octant%parity(first_mine:first_mine + mine - 1, :), values)
       end if
       ! To each rank its lines of my entries ([line][k_slow][k_fast][entry]); from each rank its
@@ -176,30 +180,70 @@ contains
     end function entries_of
   end subroutine kernel_spectrum
 
-  !> values(b, p) = K_e(d), e = first + b - 1, for `count` entries at every octant point p (fast
-  !> index first), d >= 0 its displacement; 0 outside the table's span.
-  subroutine fill_octant(table, octant, first, count, values)
+  !> The octant's points (1-based, fast index first) in the order of their canonical blocks
+  !> (block_of(p), 0 for d = 0 and beyond the span; symmetry_of(p) the lattice symmetry that makes
+  !> p of its block), so that filling reads each block once per round while it is in cache for
+  !> every point it serves: in the octant's own order the blocks come in no order, and reading them
+  !> was most of the kernel's set-up (the 1e6-bead sphere: 10 of its 20 s).
+  subroutine order_by_block(table, octant, by_block, block_of, symmetry_of)
     type(block_table_t), intent(in) :: table
     type(kernel_octant_t), intent(in) :: octant
-    integer, intent(in) :: first, count
-    real(dp), intent(out) :: values(:, :)
-    integer :: m(3), i, j, k, d(3)
-    integer(i8) :: p
+    integer(i8), allocatable, intent(out) :: by_block(:)
+    integer, allocatable, intent(out) :: block_of(:), symmetry_of(:)
+    integer :: m(3), i, j, k, d(3), c(3), s, n_blocks
+    integer(i8) :: p, points
+    integer(i8), allocatable :: next(:)
     m = octant%box / 2 + 1
+    points = product(int(m, i8))
+    n_blocks = size(table%canonical_blocks, 3)
+    allocate (by_block(points), block_of(points), symmetry_of(points), next(0:n_blocks + 1))
     p = 0
     do k = 0, m(3) - 1
       do j = 0, m(2) - 1
         do i = 0, m(1) - 1
           p = p + 1
           d(octant%axes) = [i, j, k]
-          if (any(d > table%span)) then
-            values(1:count, p) = 0.0_dp
-          else
-            call lattice_block_entries(table, d, octant%row(first:first + count - 1), &
-                                       octant%column(first:first + count - 1), values(1:count, p))
-          end if
+          block_of(p) = 0
+          symmetry_of(p) = 1
+          if (any(d > table%span) .or. all(d == 0)) cycle
+          call canonical_displacement(d, c, s)
+          block_of(p) = table%canonical_id(c(1), c(2), c(3))
+          symmetry_of(p) = s
         end do
       end do
+    end do
+    ! Counting sort by block: next(b) the place of block b's next point.
+    next = 0
+    do p = 1, points
+      next(block_of(p) + 1) = next(block_of(p) + 1) + 1
+    end do
+    next(0) = 1
+    do i = 1, n_blocks + 1
+      next(i) = next(i) + next(i - 1)
+    end do
+    do p = 1, points
+      by_block(next(block_of(p))) = p
+      next(block_of(p)) = next(block_of(p)) + 1
+    end do
+  end subroutine order_by_block
+
+  !> values(b, p) = entry first + b - 1 of the lattice block at octant point p (zero at d = 0 and
+  !> beyond the span), the points in the order of their blocks (order_by_block).
+  subroutine fill_octant(table, octant, first, count, by_block, block_of, symmetry_of, values)
+    type(block_table_t), intent(in) :: table
+    type(kernel_octant_t), intent(in) :: octant
+    integer, intent(in) :: first, count, block_of(:), symmetry_of(:)
+    integer(i8), intent(in) :: by_block(:)
+    real(dp), intent(out) :: values(:, :)
+    integer(i8) :: q, p
+    do q = 1, size(by_block, kind=i8)
+      p = by_block(q)
+      if (block_of(p) == 0) then
+        values(1:count, p) = 0.0_dp
+      else
+        call canonical_block_entries(table, block_of(p), symmetry_of(p), octant%row(first:first + count - 1), &
+                                     octant%column(first:first + count - 1), values(1:count, p))
+      end if
     end do
   end subroutine fill_octant
 

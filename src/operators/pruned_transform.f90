@@ -7,9 +7,10 @@
 !> only (half the volume); the slow-axis pass is whole. The inverse mirrors it: the slow axis in
 !> full, the data planes transposed back, the middle axis on them and the fast axis on the data
 !> rows. About 0.58 of the flops and half the transpose traffic of the whole transform, and the
-!> same spectrum: FFTW's r2c layout with FFTW_MPI_TRANSPOSED_OUT, [lines][n_slow][n_fast/2 + 1]
-!> [fields] in C order with the middle-axis lines split over the ranks (FFTW-MPI's transposed
-!> layout), where the kernel (kernel_spectrum.f90) multiplies it frequency by frequency.
+!> same spectrum, given one middle line at a time: FFTW's r2c layout with FFTW_MPI_TRANSPOSED_OUT,
+!> [lines][n_slow][n_fast/2 + 1][fields] in C order with the middle-axis lines split over the ranks
+!> (FFTW-MPI's transposed layout), where the kernel (kernel_spectrum.f90) multiplies it frequency
+!> by frequency.
 !>
 !> The slow axis runs one middle line at a time (forward_line, backward_line): the line's data
 !> planes are transposed into a scratch where each slow-axis line is contiguous (FFTW's estimated
