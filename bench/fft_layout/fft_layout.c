@@ -1,6 +1,6 @@
-/* The slow-axis transform of the mirror-class products (src/operators/mirror_transform.f90),
+/* The slow-axis transform of the FFT operator (src/operators/mirror_transform.f90, pruned_transform.f90),
  * timed in its two layouts with FFTW's two planners. One middle line holds `pairs` complex numbers
- * per slow-axis site (the row of fast frequencies and fields, two real lines per complex one) and
+ * per slow-axis site (the row of fast frequencies and fields; in the mirror-class transform two real lines per complex one) and
  * n_slow sites; a rank holds `lines` middle lines.
  *   strided:    the row contiguous, each slow-axis line a row apart (the layout of the spectrum;
  *               beadmob before 3e95435 transformed it in place like this)
