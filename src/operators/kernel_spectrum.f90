@@ -51,8 +51,8 @@ contains
   !> inversion the imaginary part) at this rank's frequencies g ([lines][k_slow <= n_slow/2]
   !> [k_fast <= n_fast/2], the fast index first), from the compact block table. `scratch`: memory
   !> the rounds may use (the operator's FFT buffer, not yet needed); a scratch of its own (up to
-  !> 64 MiB, or one entry per rank) where that holds more entries per round. reporting (rank 0): a progress line about every quarter of
-  !> the entries, timed from `start` (MPI_Wtime).
+  !> 64 MiB, or one entry per rank) where that holds more entries per round. reporting (rank 0):
+  !> a progress line about every quarter of the entries, timed from `start` (MPI_Wtime).
   subroutine kernel_spectrum(comm, table, octant, scale, scratch, kernel, err, reporting, start)
     integer, intent(in) :: comm
     type(block_table_t), intent(in) :: table
