@@ -109,7 +109,7 @@ contains
     end if
     call c_f_pointer(t%buffer, t%all, [doubles])
     t%slab => t%all(t%slab_offset + 1:t%slab_offset + 2 * int(t%planes, i8) * box(2) * row)
-    call c_f_pointer(t%buffer, t%transposed, [row, int(t%data(3), i8), max(int(t%lines, i8), 1_i8)])
+    call c_f_pointer(t%buffer, t%transposed, [row, int(t%data(3), i8), int(t%lines, i8)])
     call c_f_pointer(t%line_buffer, t%scratch, [int(box(3), i8), row])
     call c_f_pointer(t%line_buffer, line_doubles, [2 * line_size])
     call c_f_pointer(c_loc(line_doubles(line_size + 1)), t%spectrum, [int(fields, i8), int(box(3), i8) * t%half])
