@@ -65,7 +65,7 @@ contains
     real(dp), intent(in) :: start
     integer :: m(3), n_entries, n_ranks, rank, per_rank, round, n_rounds, mine, first_mine, q, ierr, count_q, first_q, b, &
                failed, done, wanted
-    integer(i8) :: points, kept, per_entry, g, offset
+    integer(i8) :: points, kept, per_entry, g, offset, count_limit
     integer(C_INTPTR_T) :: my_lines(2)
     integer(C_INTPTR_T), allocatable :: all_lines(:, :)
     integer, allocatable :: send_counts(:), send_offsets(:), receive_counts(:), receive_offsets(:)
@@ -99,8 +99,9 @@ contains
     ! all-to-all and a pass of plans (ring_1mm: 17 rounds in its FFT buffer, 5 in 64 MiB).
     wanted = int(min(int(max_round_entries, i8), own_scratch_doubles / per_entry))
     ! MPI counts and offsets are default integers.
-    per_rank = int(min(int(per_rank, i8), int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)))
-    wanted = int(min(int(wanted, i8), int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)))
+    count_limit = int(huge(1), i8) / (max(int(octant%box(2), i8), n_ranks * octant%lines) * kept)
+    per_rank = int(min(int(per_rank, i8), count_limit))
+    wanted = int(min(int(wanted, i8), count_limit))
     call MPI_Allreduce(MPI_IN_PLACE, per_rank, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
     call MPI_Allreduce(MPI_IN_PLACE, wanted, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
     room => scratch

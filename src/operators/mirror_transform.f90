@@ -78,6 +78,8 @@ module beadmob_mirror_transform
     real(C_DOUBLE), pointer, contiguous :: all(:) => null()
     real(C_DOUBLE), pointer, contiguous :: slab(:) => null()        ! [planes][half_m][half_f][fields]
     real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][data planes][half_f][fields]
+    !> The same as (complex pair of a row, data plane, middle line): what the slow axis reads and writes
+    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: line_planes(:, :, :) => null()
     !> scratch(k_slow, p): the slow-axis line of the row's complex pair p (the row's numbers 2p - 1, 2p)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: scratch(:, :) => null()
     !> (numbers of a row, rows k_slow = 0 .. n_slow/2) of one middle line; field s at fast
@@ -210,6 +212,7 @@ contains
     call c_f_pointer(b%memory, b%all, [doubles])
     b%slab => b%all(1:max(t%slab_doubles, 1_i8))
     b%transposed => b%all(region_a + 1:region_a + t%transposed_doubles)
+    call c_f_pointer(c_loc(b%transposed), b%line_planes, [t%row / 2, t%data(3), int(t%lines)])
     b%scratch_memory = fftw_alloc_real(int(t%box(3), C_SIZE_T) * t%row)
     made = c_associated(b%scratch_memory)
     if (.not. made) return
@@ -232,6 +235,7 @@ contains
     b%all => null()
     b%slab => null()
     b%transposed => null()
+    b%line_planes => null()
     b%spectrum => null()
   end subroutine destroy_mirror_buffer
 
@@ -353,10 +357,8 @@ contains
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: line
     integer :: plane
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
-    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
     do plane = 1, t%data(3)
-      b%scratch(plane, :) = z(:, plane, line)
+      b%scratch(plane, :) = b%line_planes(:, plane, line)
     end do
     b%scratch(t%data(3) + 1:, :) = (0.0_dp, 0.0_dp)
     call fftw_execute_dft(t%slow_forward, c_loc(b%scratch), c_loc(b%scratch))
@@ -370,12 +372,10 @@ contains
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: line
     integer :: plane
-    complex(C_DOUBLE_COMPLEX), pointer :: z(:, :, :)
-    call c_f_pointer(c_loc(b%transposed), z, [t%row / 2, t%data(3), int(t%lines)])
     call join_pairs(t, b)
     call fftw_execute_dft(t%slow_backward, c_loc(b%scratch), c_loc(b%scratch))
     do plane = 1, t%data(3)
-      z(:, plane, line) = b%scratch(plane, :)
+      b%line_planes(:, plane, line) = b%scratch(plane, :)
     end do
   end subroutine backward_line
 
