@@ -96,4 +96,15 @@ module beadmob_fftw
       type(C_PTR), value :: p
     end subroutine fftw_execute
   end interface
+
+contains
+
+  !> The leading dimension of a scratch of slow-axis lines of n complex numbers, which the
+  !> transforms fill and read across the lines (one number of each line in turn): odd, so that
+  !> the numbers a line apart do not fall into the same few cache sets, as with a stride of a
+  !> power of two (256 x 16 bytes maps every line to one set).
+  pure integer function line_stride(n)
+    integer, intent(in) :: n
+    line_stride = n + 1 - mod(n, 2)
+  end function line_stride
 end module beadmob_fftw

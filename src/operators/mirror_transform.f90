@@ -80,7 +80,8 @@ module beadmob_mirror_transform
     real(C_DOUBLE), pointer, contiguous :: transposed(:) => null()  ! [lines][data planes][half_f][fields]
     !> The same as (complex pair of a row, data plane, middle line): what the slow axis reads and writes
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: line_planes(:, :, :) => null()
-    !> scratch(k_slow, p): the slow-axis line of the row's complex pair p (the row's numbers 2p - 1, 2p)
+    !> scratch(k_slow, p): the slow-axis line of the row's complex pair p (the row's numbers 2p - 1, 2p);
+    !> its leading dimension line_stride(n_slow)
     complex(C_DOUBLE_COMPLEX), pointer, contiguous :: scratch(:, :) => null()
     !> (numbers of a row, rows k_slow = 0 .. n_slow/2) of one middle line; field s at fast
     !> frequency k of a row is number 1 + field_base(s) + k field_step(s)
@@ -213,10 +214,10 @@ contains
     b%slab => b%all(1:max(t%slab_doubles, 1_i8))
     b%transposed => b%all(region_a + 1:region_a + t%transposed_doubles)
     call c_f_pointer(c_loc(b%transposed), b%line_planes, [t%row / 2, t%data(3), int(t%lines)])
-    b%scratch_memory = fftw_alloc_real(int(t%box(3), C_SIZE_T) * t%row)
+    b%scratch_memory = fftw_alloc_real(int(line_stride(t%box(3)), C_SIZE_T) * t%row)
     made = c_associated(b%scratch_memory)
     if (.not. made) return
-    call c_f_pointer(b%scratch_memory, b%scratch, [t%box(3), t%row / 2])
+    call c_f_pointer(b%scratch_memory, b%scratch, [line_stride(t%box(3)), t%row / 2])
     b%spectrum_memory = fftw_alloc_real(2 * int(t%row, C_SIZE_T) * (t%box(3) / 2 + 1))
     made = c_associated(b%spectrum_memory)
     if (.not. made) return
@@ -285,7 +286,7 @@ contains
       ! plans for the same lines strided across the row (the layout of the spectrum) cost 2-3.5
       ! times as much at many sizes (140, 120, 100: bench/fft_layout), contiguous ones never more.
       line(1) = fftw_iodim(t%box(3), 1, 1)
-      slow_many(1) = fftw_iodim(t%row / 2, t%box(3), t%box(3))
+      slow_many(1) = fftw_iodim(t%row / 2, line_stride(t%box(3)), line_stride(t%box(3)))
       t%slow_forward = fftw_plan_guru_dft(1, line, 1, slow_many(1:1), c_loc(b%scratch), c_loc(b%scratch), &
                                           FFTW_FORWARD, flags)
       t%slow_backward = fftw_plan_guru_dft(1, line, 1, slow_many(1:1), c_loc(b%scratch), c_loc(b%scratch), &
@@ -360,7 +361,7 @@ contains
     do plane = 1, t%data(3)
       b%scratch(plane, :) = b%line_planes(:, plane, line)
     end do
-    b%scratch(t%data(3) + 1:, :) = (0.0_dp, 0.0_dp)
+    b%scratch(t%data(3) + 1:t%box(3), :) = (0.0_dp, 0.0_dp)
     call fftw_execute_dft(t%slow_forward, c_loc(b%scratch), c_loc(b%scratch))
     call split_pairs(t, b)
   end subroutine forward_line

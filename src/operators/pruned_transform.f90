@@ -72,7 +72,7 @@ contains
     type(pruned_transform_t), intent(inout) :: t
     type(error_t), intent(inout) :: err
     integer(C_INTPTR_T) :: row, forward_alloc, backward_alloc, back_lines(2), back_planes(2)
-    integer(i8) :: compact, doubles, line_size
+    integer(i8) :: compact, doubles, scratch_size, line_size
     real(C_DOUBLE), pointer, contiguous :: line_doubles(:)
 
     t%fields = fields
@@ -100,20 +100,21 @@ contains
     doubles = t%slab_offset + max(int(forward_alloc, i8), int(backward_alloc, i8), 2 * int(t%planes, i8) * box(2) * row, &
                                   1_i8)
     t%buffer = fftw_alloc_real(int(doubles, C_SIZE_T))
-    line_size = 2 * int(box(3), i8) * row   ! doubles of the scratch, and of the spectrum
-    t%line_buffer = fftw_alloc_real(int(2 * line_size, C_SIZE_T))
+    scratch_size = 2 * int(line_stride(box(3)), i8) * row   ! doubles of the scratch
+    line_size = 2 * int(box(3), i8) * row                  ! and of the spectrum
+    t%line_buffer = fftw_alloc_real(int(scratch_size + line_size, C_SIZE_T))
     if (.not. c_associated(t%buffer) .or. .not. c_associated(t%line_buffer)) then
-      call raise(err, 'could not allocate the FFT buffer (' // str(8.0_dp * (doubles + 2 * line_size) / 1.0e9_dp) // &
-                 ' GB)')
+      call raise(err, 'could not allocate the FFT buffer (' // str(8.0_dp * (doubles + scratch_size + line_size) / &
+                                                                   1.0e9_dp) // ' GB)')
       return
     end if
     call c_f_pointer(t%buffer, t%all, [doubles])
     t%slab => t%all(t%slab_offset + 1:t%slab_offset + 2 * int(t%planes, i8) * box(2) * row)
     call c_f_pointer(t%buffer, t%transposed, [row, int(t%data(3), i8), int(t%lines, i8)])
-    call c_f_pointer(t%line_buffer, t%scratch, [int(box(3), i8), row])
-    call c_f_pointer(t%line_buffer, line_doubles, [2 * line_size])
-    call c_f_pointer(c_loc(line_doubles(line_size + 1)), t%spectrum, [int(fields, i8), int(box(3), i8) * t%half])
-    call c_f_pointer(c_loc(line_doubles(line_size + 1)), t%flat_spectrum, [line_size / 2])
+    call c_f_pointer(t%line_buffer, t%scratch, [int(line_stride(box(3)), i8), row])
+    call c_f_pointer(t%line_buffer, line_doubles, [scratch_size + line_size])
+    call c_f_pointer(c_loc(line_doubles(scratch_size + 1)), t%spectrum, [int(fields, i8), int(box(3), i8) * t%half])
+    call c_f_pointer(c_loc(line_doubles(scratch_size + 1)), t%flat_spectrum, [line_size / 2])
     t%flat_spectrum(0:) => t%flat_spectrum
   end subroutine size_pruned_transform
 
@@ -157,7 +158,7 @@ contains
     if (t%lines > 0) then
       ! Slow axis, whole, on the scratch's contiguous lines of one middle line (complex).
       line(1) = fftw_iodim(t%box(3), 1, 1)
-      planes(1) = fftw_iodim(row, t%box(3), t%box(3))
+      planes(1) = fftw_iodim(row, line_stride(t%box(3)), line_stride(t%box(3)))
       t%plans(slow_forward) = fftw_plan_guru_dft(1, line, 1, planes(1:1), t%line_buffer, t%line_buffer, FFTW_FORWARD, &
                                                  flags)
       t%plans(slow_backward) = fftw_plan_guru_dft(1, line, 1, planes(1:1), t%line_buffer, t%line_buffer, &
@@ -210,7 +211,7 @@ contains
     do plane = 1, t%data(3)
       t%scratch(plane, :) = t%transposed(:, plane, line)
     end do
-    t%scratch(t%data(3) + 1:, :) = (0.0_C_DOUBLE, 0.0_C_DOUBLE)
+    t%scratch(t%data(3) + 1:t%box(3), :) = (0.0_C_DOUBLE, 0.0_C_DOUBLE)
     call fftw_execute(t%plans(slow_forward))
     do slow = 0, t%box(3) - 1
       t%flat_spectrum(slow * row:(slow + 1) * row - 1) = t%scratch(slow + 1, :)

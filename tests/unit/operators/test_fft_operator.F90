@@ -50,7 +50,12 @@ program test_fft_operator
   call check_equal(suite, fft_size(1), 1, 'fft_size(1)')
   call check_equal(suite, fft_size(11), 12, 'fft_size(11)')
   call check_equal(suite, fft_size(93), 96, 'fft_size(93)')
-  call check_equal(suite, fft_size(121), 125, 'fft_size(121)')
+  ! The next power of two where it is at most 5 % above the smooth size: 128 <= 1.05 x 125,
+  ! 256 <= 1.05 x 245, not 128 > 1.05 x 120 nor 256 > 1.05 x 243.
+  call check_equal(suite, fft_size(121), 128, 'fft_size(121)')
+  call check_equal(suite, fft_size(245), 256, 'fft_size(245)')
+  call check_equal(suite, fft_size(117), 120, 'fft_size(117)')
+  call check_equal(suite, fft_size(241), 243, 'fft_size(241)')
 
   ! Shifted off the origin, with a non-integer corner: only the lattice spacing matters.
   cone = small_cone()
