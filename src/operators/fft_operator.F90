@@ -58,6 +58,7 @@ module beadmob_fft_operator
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
   use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
+  use beadmob_frequency_rows, only: row_chunk, row_stride_of, rows_frequencies_innermost, chunk_product
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
                                       mirror_forward_planes => forward_planes, mirror_forward_line => forward_line, &
                                       mirror_backward_line => backward_line, mirror_backward_planes => backward_planes, &
@@ -118,11 +119,18 @@ module beadmob_fft_operator
     !> Upper triangle of K^(k) / M over slots, packed by columns (entry s + t(t-1)/2 for s <= t),
     !> for this rank's frequencies with k_slow <= n_slow / 2 ([lines][n_slow/2 + 1][n_fast/2 + 1]):
     !> the real part, or for an even-odd entry the imaginary part.
+    !> Stored by rows (frequency_rows.f90): the row of n_fast/2 + 1 frequencies of each (line,
+    !> k_slow) as (frequency padded to row_stride, packed entry).
     real(dp), allocatable :: kernel(:, :)
+    integer :: row_stride = 0
     !> A companion (create_fft_companion) holds no kernel of its own: it reads its entries from
     !> its parent's, entry e of its packed triangle being kernel_map(e) of the parent's.
     real(dp), pointer, contiguous :: shared_kernel(:, :) => null()
     integer, allocatable :: kernel_map(:)
+    !> The packed entries the frequency product reads (0-based, the kernel's or kernel_map - 1),
+    !> and a factor of one for each (the whole-box product's)
+    integer(C_INT), allocatable :: entry_read(:)
+    real(dp), allocatable :: unit_factor(:)
     Vec :: slab          ! PETSc view of transform%slab (this rank's data planes)
     VecScatter :: to_slab
     logical :: created = .false.
@@ -260,7 +268,8 @@ contains
     half = cost%fft_box(1) / 2 + 1
     data_planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
     freq_planes = real(ceiling(real(cost%fft_box(2), dp) / size%n_ranks), dp)
-    cost%kernel = 8 * packed * freq_planes * (cost%fft_box(3) / 2 + 1) * half   ! k_slow <= n_slow / 2
+    ! k_slow <= n_slow / 2, each row padded to row_stride (frequency_rows.f90)
+    cost%kernel = 8 * packed * freq_planes * (cost%fft_box(3) / 2 + 1) * row_stride_of(nint(half))
     cost%fft_buffer = 16 * nb * ((freq_planes * data(3) + data_planes * cost%fft_box(2)) * half &
                                  + 2 * cost%fft_box(3) * half)   ! and one middle line's scratch and spectrum
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
@@ -279,7 +288,7 @@ contains
   pure subroutine mirrored_fft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: nb, packed, lines, planes, frequencies, transforms
+    real(dp) :: nb, packed, lines, planes, transforms
     integer :: axes(3), data(3), half(2), fundamental(2)
     nb = size%nb
     packed = nb * (nb + 1) / 2
@@ -294,8 +303,7 @@ contains
     fundamental = (data(1:2) + 1) / 2
     lines = real(ceiling(real(half(2), dp) / size%n_ranks), dp)
     planes = real(ceiling(real(data(3), dp) / size%n_ranks), dp)
-    frequencies = lines * (cost%fft_box(3) / 2 + 1) * half(1)
-    cost%kernel = 8 * packed * frequencies
+    cost%kernel = 8 * packed * lines * (cost%fft_box(3) / 2 + 1) * row_stride_of(half(1))   ! rows padded
     cost%fft_buffer = 8 * nb * (planes * half(2) * half(1) + lines * data(3) * half(1) &
                                 + (cost%fft_box(3) + 2 * (cost%fft_box(3) / 2 + 1)) * half(1))
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
@@ -553,6 +561,9 @@ contains
         call raise(err, 'internal error: the FFT companion has other frequencies than its parent')
     end if
     companion%shared_kernel => parent%kernel
+    companion%row_stride = parent%row_stride
+    companion%entry_read = companion%kernel_map - 1
+    allocate (companion%unit_factor(size(companion%kernel_map)), source=1.0_dp)
     call finish_shell(comm, companion, matrix, err, .false.)
   end subroutine create_fft_companion
 
@@ -922,19 +933,23 @@ contains
     logical, intent(in) :: reporting   ! a progress line about every quarter (rank 0)
     real(dp), intent(in) :: start      ! MPI_Wtime of the set-up's start
     type(kernel_octant_t) :: octant
-    integer :: nb, n_packed, e, i, s, t, stat, failed
+    integer :: nb, n_packed, e, i, s, t, stat, failed, row_length
     integer, allocatable :: unknown(:)
-    integer(i8) :: kept
+    integer(i8) :: kept, rows
     PetscErrorCode :: ierr   ! also the MPI error code
 
     nb = op%block_size
     n_packed = nb * (nb + 1) / 2
     if (op%mirrored) then
-      kept = op%reduced%lines * (op%box(3) / 2 + 1) * op%reduced%half(1)
+      row_length = op%reduced%half(1)
+      rows = op%reduced%lines * (op%box(3) / 2 + 1)
     else
-      kept = op%transform%lines * (op%box(3) / 2 + 1) * op%transform%half
+      row_length = op%transform%half
+      rows = op%transform%lines * (op%box(3) / 2 + 1)
     end if
-    allocate (op%kernel(n_packed, max(kept, 1_i8)), stat=stat)
+    kept = rows * row_length
+    op%row_stride = row_stride_of(row_length)
+    allocate (op%kernel(n_packed, max(rows * op%row_stride, 1_i8)), stat=stat)
     ! Agreed on by the ranks before the collective transform.
     failed = merge(1, 0, stat /= 0)
     call MPI_Allreduce(MPI_IN_PLACE, failed, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
@@ -975,14 +990,18 @@ contains
       octant%first_line = op%reduced%first_line
       octant%lines = op%reduced%lines
       call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
-                           op%buffers(1)%all, op%kernel, err, reporting, start)
+                           op%buffers(1)%all, op%kernel(:, 1:kept), err, reporting, start)
       call find_class_factors(op, octant)
     else
       octant%first_line = op%transform%first_line
       octant%lines = op%transform%lines
       call kernel_spectrum(comm, op%table, octant, 1.0_dp / (real(op%box(1), dp) * op%box(2) * op%box(3)), &
-                           op%transform%all, op%kernel, err, reporting, start)
+                           op%transform%all, op%kernel(:, 1:kept), err, reporting, start)
     end if
+    if (err%failed) return
+    call rows_frequencies_innermost(size(op%kernel, kind=i8), op%kernel, n_packed, rows, row_length, op%row_stride)
+    op%entry_read = [(e - 1, e = 1, n_packed)]
+    allocate (op%unit_factor(n_packed), source=1.0_dp)
   end subroutine transform_kernel
 
   !> 0-based index of padded site (i, j, k) in this rank's data planes (k counted from its first
@@ -1207,7 +1226,7 @@ contains
         call pruned_forward_line(transform_of(j), line)
       end do
       if (associated(op%shared_kernel)) then
-        call multiply_spectra(op, op%shared_kernel, spectra, line, op%kernel_map)
+        call multiply_spectra(op, op%shared_kernel, spectra, line)
       else
         call multiply_spectra(op, op%kernel, spectra, line)
       end if
@@ -1250,82 +1269,75 @@ contains
   end subroutine batched_product
 
   !> spectrum(:, f) <- K^(f) spectrum(:, f) for every frequency f of middle line `line` of every
-  !> spectrum (the line's, pruned_transform.f90). K^(f) is kernel(:, g) (or with `map`, a
-  !> companion, kernel(map, g), gathered into a fixed-size copy) at the kept frequency g of f,
-  !> times D on both sides where f is the mirror image of g (k_slow > n_slow / 2). A kept frequency
-  !> and its image, in every spectrum, are multiplied together: one pass over the line's kernel
-  !> for all.
-  subroutine multiply_spectra(op, kernel, spectra, line, map)
+  !> spectrum (the line's, pruned_transform.f90). K^(f) is the kernel's at the kept frequency g of
+  !> f (a companion's entries of it: op%entry_read), times D on both sides where f is the mirror
+  !> image of g (k_slow > n_slow / 2). Row by row of kept frequencies, in chunks of row_chunk
+  !> (frequency_rows.f90), in the real form of the module header: K' [u_e; -v_o] = [Re y_e; -Im y_o],
+  !> K' [v_e; u_o] = [Im y_e; Re y_o] for x = u + i v, and for the image D x' with D K' D.
+  subroutine multiply_spectra(op, kernel, spectra, line)
     type(fft_operator_t), intent(in) :: op
-    real(dp), intent(in), target, contiguous :: kernel(:, :)
+    real(dp), intent(in), contiguous, target :: kernel(:, :)
     type(spectrum_ref_t), intent(in) :: spectra(:)
     integer, intent(in) :: line
-    integer, intent(in), optional :: map(:)
-    real(dp), target :: gathered(op%block_size * (op%block_size + 1) / 2)
-    real(dp), pointer, contiguous :: column(:)
-    complex(C_DOUBLE_COMPLEX), target :: alone(op%block_size)
-    complex(C_DOUBLE_COMPLEX), pointer, contiguous :: image_values(:)
-    integer(i8) :: g, f, image, slow, fast, n_slow, half
-    integer :: j
+    real(dp) :: z(row_chunk, 2, op%block_size), w(row_chunk, 2, op%block_size), sign_t
+    real(dp), pointer, contiguous :: flat(:)
+    integer(i8) :: row_start, f, image
+    integer :: n_slow, half, slow, offset, n, j, t
+    flat(1:size(kernel, kind=i8)) => kernel
     n_slow = op%box(3)
     half = op%transform%half
-    g = int(line - 1, i8) * (n_slow / 2 + 1) * half   ! the line's first kept frequency
     do slow = 0, n_slow / 2
-      do fast = 0, half - 1
-        g = g + 1
-        if (present(map)) then
-          gathered = kernel(map, g)
-          column => gathered
-        else
-          column => kernel(:, g)
-        end if
-        f = 1 + fast + half * slow
-        image = 1 + fast + half * (n_slow - slow)
+      row_start = (int(line - 1, i8) * (n_slow / 2 + 1) + slow) * size(kernel, 1) * op%row_stride
+      do offset = 0, half - 1, row_chunk
+        n = min(row_chunk, half - offset)
+        f = offset + int(half, i8) * slow                ! the chunk's frequencies f + 1 .. f + n
+        image = offset + int(half, i8) * (n_slow - slow)
         do j = 1, size(spectra)
-          if (slow == 0 .or. 2 * slow == n_slow) then   ! its own image: a zero stands in
-            alone = 0
-            image_values => alone
-          else
-            image_values => spectra(j)%values(:, image)
-          end if
-          call multiply_frequency(op%n_even, column, op%mirror_sign, spectra(j)%values(:, f), image_values)
+          associate (x => spectra(j)%values)
+            z = 0
+            do t = 1, op%n_even
+              z(1:n, 1, t) = real(x(t, f + 1:f + n), dp)
+              z(1:n, 2, t) = aimag(x(t, f + 1:f + n))
+            end do
+            do t = op%n_even + 1, op%block_size
+              z(1:n, 1, t) = -aimag(x(t, f + 1:f + n))
+              z(1:n, 2, t) = real(x(t, f + 1:f + n), dp)
+            end do
+            call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
+                               op%unit_factor, z, w)
+            do t = 1, op%n_even
+              x(t, f + 1:f + n) = cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
+            end do
+            do t = op%n_even + 1, op%block_size
+              x(t, f + 1:f + n) = cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
+            end do
+            if (slow == 0 .or. 2 * slow == n_slow) cycle   ! the row is its own image
+            do t = 1, op%block_size
+              sign_t = op%mirror_sign(t)
+              if (t <= op%n_even) then
+                z(1:n, 1, t) = sign_t * real(x(t, image + 1:image + n), dp)
+                z(1:n, 2, t) = sign_t * aimag(x(t, image + 1:image + n))
+              else
+                z(1:n, 1, t) = -sign_t * aimag(x(t, image + 1:image + n))
+                z(1:n, 2, t) = sign_t * real(x(t, image + 1:image + n), dp)
+              end if
+            end do
+            call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
+                               op%unit_factor, z, w)
+            do t = 1, op%block_size
+              sign_t = op%mirror_sign(t)
+              if (t <= op%n_even) then
+                x(t, image + 1:image + n) = sign_t * cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
+              else
+                x(t, image + 1:image + n) = sign_t * cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
+              end if
+            end do
+          end associate
         end do
       end do
     end do
   end subroutine multiply_spectra
 
-  ! x <- K^ x and x' <- D K^ D x' at one kept frequency and its image (frequency_product.inc),
-  ! for L = 2 (16 unknowns per bead), its companion (6) and any block size.
-#define BLOCK 16
-#define FREQUENCY_PRODUCT multiply_frequency_16
-#include "frequency_product.inc"
-#undef BLOCK
-#undef FREQUENCY_PRODUCT
-#define BLOCK 6
-#define FREQUENCY_PRODUCT multiply_frequency_6
-#include "frequency_product.inc"
-#undef BLOCK
-#undef FREQUENCY_PRODUCT
-#define BLOCK size(mirror)
-#define FREQUENCY_PRODUCT multiply_frequency_any
-#include "frequency_product.inc"
-#undef BLOCK
-#undef FREQUENCY_PRODUCT
-
-  !> The frequency product for the operator's block size.
-  subroutine multiply_frequency(n_even, packed, mirror, spectrum, image)
-    integer, intent(in) :: n_even
-    real(dp), intent(in), contiguous :: packed(:), mirror(:)
-    complex(C_DOUBLE_COMPLEX), intent(inout), contiguous :: spectrum(:), image(:)
-    select case (size(mirror))
-    case (16)
-      call multiply_frequency_16(n_even, packed, mirror, spectrum, image)
-    case (6)
-      call multiply_frequency_6(n_even, packed, mirror, spectrum, image)
-    case default
-      call multiply_frequency_any(n_even, packed, mirror, spectrum, image)
-    end select
-  end subroutine multiply_frequency
   !> The FFT axes (op%axes) and whether the products run in mirror classes (op%mirrored): when
   !> the bead set is its own mirror image along at least two lattice axes, two of them are the
   !> fast and the middle axis (the smaller fast), the other the slow one (of three, the largest).
@@ -1455,7 +1467,7 @@ contains
         m = count(octant%parity(e, :) < 0)
         do c = 1, n_classes
           class_sign = class_signs(c)
-          ! K' of frequency_product.inc: K = i K' at (slow-even s, slow-odd t), -i K' at (odd, even)
+          ! K' of the module header: K = i K' at (slow-even s, slow-odd t), -i K' at (odd, even)
           exponent = m + merge(1, 0, m >= 2) + merge(1, 0, op%slow_even(s) .and. .not. op%slow_even(t))
           do a = 1, 2
             odd_s = merge(1, 0, class_sign(a) * op%field_sign(s, a) < 0)
@@ -1551,7 +1563,7 @@ contains
           call mirror_forward_line(op%reduced, op%buffers(k), line)
         end do
         if (associated(op%shared_kernel)) then
-          call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), line, op%kernel_map)
+          call multiply_classes(op, op%shared_kernel, item_class(first:first + n - 1), line)
         else
           call multiply_classes(op, op%kernel, item_class(first:first + n - 1), line)
         end if
@@ -1589,74 +1601,56 @@ contains
   end subroutine add_self_term
 
   !> The spectra of middle line `line` of the first size(classes) buffers, buffer k of class
-  !> classes(k), times the class's kernel frequency by frequency: one pass over the line's kernel
-  !> for all. A spectrum row holds the fast-axis frequencies of one k_slow with the fields at
-  !> field_base + k field_step (mirror_transform.f90).
-  subroutine multiply_classes(op, kernel, classes, line, map)
+  !> classes(k), times the class's kernel frequency by frequency: row by row, in chunks of
+  !> row_chunk frequencies (frequency_rows.f90), each buffer's chunk by the chunk of the kernel's
+  !> row (a companion's entries of it: op%entry_read) signed by class_factor. A spectrum row holds
+  !> the fast-axis frequencies of one k_slow with the fields at field_base + k field_step
+  !> (mirror_transform.f90). In the real form of the module header, K = [R_ee, i J_eo; -i J_eo^T,
+  !> R_oo] by the slots' parity along the slow axis.
+  subroutine multiply_classes(op, kernel, classes, line)
     type(fft_operator_t), intent(inout) :: op
-    real(dp), intent(in), contiguous :: kernel(:, :)
+    real(dp), intent(in), contiguous, target :: kernel(:, :)
     integer, intent(in) :: classes(:), line
-    integer, intent(in), optional :: map(:)
-    real(dp) :: column(size(op%class_factor, 1)), signed(size(op%class_factor, 1), n_classes)
-    complex(C_DOUBLE_COMPLEX) :: values(op%block_size)
-    integer :: at(op%block_size)
-    logical :: present_class(n_classes)
-    integer(i8) :: g, row
-    integer :: k, c, fast
-    present_class = .false.
-    present_class(classes) = .true.
-    g = int(line - 1, i8) * (op%box(3) / 2 + 1) * op%reduced%half(1)   ! the line's first frequency
+    real(dp) :: z(row_chunk, 2, op%block_size), w(row_chunk, 2, op%block_size)
+    real(dp), pointer, contiguous :: flat(:)
+    integer(i8) :: row_start
+    integer :: k, t, i, half, row, offset, n, at
+    flat(1:size(kernel, kind=i8)) => kernel
+    half = op%reduced%half(1)
     do row = 1, op%box(3) / 2 + 1
-      do fast = 0, op%reduced%half(1) - 1
-        g = g + 1
-        if (present(map)) then
-          column = kernel(map, g)
-        else
-          column = kernel(:, g)
-        end if
-        do c = 1, n_classes
-          if (present_class(c)) signed(:, c) = column * op%class_factor(:, c)
-        end do
-        at = 1 + op%reduced%field_base + fast * op%reduced%field_step
+      row_start = (int(line - 1, i8) * (op%box(3) / 2 + 1) + row - 1) * size(kernel, 1) * op%row_stride
+      do offset = 0, half - 1, row_chunk
+        n = min(row_chunk, half - offset)
         do k = 1, size(classes)
-          values = op%buffers(k)%spectrum(at, row)
-          call multiply_class_frequency(op%slow_even, signed(:, classes(k)), values)
-          op%buffers(k)%spectrum(at, row) = values
+          associate (values => op%buffers(k)%spectrum(:, row))
+            z = 0
+            do t = 1, op%block_size
+              do i = 1, n
+                at = 1 + op%reduced%field_base(t) + (offset + i - 1) * op%reduced%field_step(t)
+                if (op%slow_even(t)) then
+                  z(i, 1, t) = real(values(at), dp)
+                  z(i, 2, t) = aimag(values(at))
+                else
+                  z(i, 1, t) = -aimag(values(at))
+                  z(i, 2, t) = real(values(at), dp)
+                end if
+              end do
+            end do
+            call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
+                               op%class_factor(:, classes(k)), z, w)
+            do t = 1, op%block_size
+              do i = 1, n
+                at = 1 + op%reduced%field_base(t) + (offset + i - 1) * op%reduced%field_step(t)
+                if (op%slow_even(t)) then
+                  values(at) = cmplx(w(i, 1, t), w(i, 2, t), kind=C_DOUBLE_COMPLEX)
+                else
+                  values(at) = cmplx(w(i, 2, t), -w(i, 1, t), kind=C_DOUBLE_COMPLEX)
+                end if
+              end do
+            end do
+          end associate
         end do
       end do
     end do
   end subroutine multiply_classes
-
-  ! x <- K x at one frequency in a mirror class (class_frequency_product.inc), for L = 2 (16
-  ! unknowns per bead), its companion (6) and any block size.
-#define BLOCK 16
-#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_16
-#include "class_frequency_product.inc"
-#undef BLOCK
-#undef CLASS_FREQUENCY_PRODUCT
-#define BLOCK 6
-#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_6
-#include "class_frequency_product.inc"
-#undef BLOCK
-#undef CLASS_FREQUENCY_PRODUCT
-#define BLOCK size(spectrum)
-#define CLASS_FREQUENCY_PRODUCT multiply_class_frequency_any
-#include "class_frequency_product.inc"
-#undef BLOCK
-#undef CLASS_FREQUENCY_PRODUCT
-
-  !> The class frequency product for the operator's block size.
-  subroutine multiply_class_frequency(even, packed, spectrum)
-    logical, intent(in) :: even(:)
-    real(dp), intent(in), contiguous :: packed(:)
-    complex(C_DOUBLE_COMPLEX), intent(inout), contiguous :: spectrum(:)
-    select case (size(spectrum))
-    case (16)
-      call multiply_class_frequency_16(even, packed, spectrum)
-    case (6)
-      call multiply_class_frequency_6(even, packed, spectrum)
-    case default
-      call multiply_class_frequency_any(even, packed, spectrum)
-    end select
-  end subroutine multiply_class_frequency
 end module beadmob_fft_operator
