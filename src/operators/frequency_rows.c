@@ -17,9 +17,8 @@
 #endif
 
 /* z, w: [slot][column 0, 1][frequency], ROW_CHUNK frequencies each (Fortran (ROW_CHUNK, 2, nb)) */
-BEADMOB_CLONES
-void beadmob_chunk_product(int nb, int row_stride, const double *restrict kernel, const int *restrict entry,
-                           const double *restrict factor, const double *restrict z, double *restrict w) {
+static inline void chunk_product(int nb, int row_stride, const double *restrict kernel, const int *restrict entry,
+                                 const double *restrict factor, const double *restrict z, double *restrict w) {
   for (int i = 0; i < 2 * ROW_CHUNK * nb; i++) w[i] = 0.0;
   int e = 0;
   for (int t = 0; t < nb; t++) {
@@ -45,4 +44,19 @@ void beadmob_chunk_product(int nb, int row_stride, const double *restrict kernel
       for (int k = 0; k < ROW_CHUNK; k++)
         w_t[c * ROW_CHUNK + k] += column_t[c * ROW_CHUNK + k] + f * k_tt[k] * z_t[c * ROW_CHUNK + k];
   }
+}
+
+/* The product as the processor runs it: the clone for its level. */
+BEADMOB_CLONES
+void beadmob_chunk_product(int nb, int row_stride, const double *restrict kernel, const int *restrict entry,
+                           const double *restrict factor, const double *restrict z, double *restrict w) {
+  chunk_product(nb, row_stride, kernel, entry, factor, z, w);
+}
+
+/* The same for the build's default target only, whatever the processor: what a node without AVX2
+   runs, here so that the tests check it on every machine (test_frequency_rows). */
+void beadmob_chunk_product_default(int nb, int row_stride, const double *restrict kernel,
+                                   const int *restrict entry, const double *restrict factor,
+                                   const double *restrict z, double *restrict w) {
+  chunk_product(nb, row_stride, kernel, entry, factor, z, w);
 }

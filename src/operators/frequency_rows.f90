@@ -9,7 +9,7 @@ module beadmob_frequency_rows
   use beadmob_kinds, only: dp, i8
   implicit none
   private
-  public :: row_chunk, row_stride_of, rows_frequencies_innermost, chunk_product
+  public :: row_chunk, row_stride_of, rows_frequencies_innermost, chunk_product, chunk_product_default
 
   !> Frequencies of one chunk product (ROW_CHUNK of frequency_rows.c)
   integer, parameter :: row_chunk = 8
@@ -26,6 +26,16 @@ module beadmob_frequency_rows
       real(C_DOUBLE), intent(in) :: z(*)            ! (row_chunk, 2, nb)
       real(C_DOUBLE), intent(out) :: w(*)           ! (row_chunk, 2, nb)
     end subroutine chunk_product
+    !> chunk_product compiled for the build's default target only (what a processor without
+    !> AVX2 runs; the tests check it on every machine)
+    subroutine chunk_product_default(nb, row_stride, kernel, entry, factor, z, w) &
+      bind(C, name='beadmob_chunk_product_default')
+      import :: C_INT, C_DOUBLE
+      integer(C_INT), value :: nb, row_stride
+      real(C_DOUBLE), intent(in) :: kernel(*), factor(*), z(*)
+      integer(C_INT), intent(in) :: entry(*)
+      real(C_DOUBLE), intent(out) :: w(*)
+    end subroutine chunk_product_default
   end interface
 
 contains
