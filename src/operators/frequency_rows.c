@@ -10,7 +10,8 @@
 
 #define ROW_CHUNK 8
 
-#if defined(__GNUC__) && __GNUC__ >= 11 && !defined(__clang__) && defined(__x86_64__)
+/* BEADMOB_NO_CLONES: set by CMake where a test program with target_clones does not build. */
+#if defined(__GNUC__) && __GNUC__ >= 11 && !defined(__clang__) && defined(__x86_64__) && !defined(BEADMOB_NO_CLONES)
 #define BEADMOB_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define BEADMOB_CLONES
