@@ -20,6 +20,7 @@ module beadmob_kernel_spectrum
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_block_table, only: block_table_t, canonical_block_entries
   use beadmob_lattice_symmetry, only: canonical_displacement
+  use beadmob_counting_sort, only: counting_sort
   use mpi, only: MPI_Allgather, MPI_Allreduce, MPI_Alltoallv, MPI_Comm_rank, MPI_Comm_size, MPI_IN_PLACE, &
                  MPI_INTEGER, MPI_INTEGER8, MPI_DOUBLE_PRECISION, MPI_MIN, MPI_MAX, MPI_Wtime
   implicit none
@@ -193,11 +194,11 @@ contains
     integer, allocatable, intent(out) :: block_of(:), symmetry_of(:)
     integer :: m(3), i, j, k, d(3), c(3), s, n_blocks
     integer(i8) :: p, points
-    integer(i8), allocatable :: next(:)
+    integer(i8), allocatable :: starts(:)
     m = octant%box / 2 + 1
     points = product(int(m, i8))
     n_blocks = size(table%canonical_blocks, 3)
-    allocate (by_block(points), block_of(points), symmetry_of(points), next(0:n_blocks + 1))
+    allocate (by_block(points), block_of(points), symmetry_of(points), starts(0:n_blocks + 1))
     p = 0
     do k = 0, m(3) - 1
       do j = 0, m(2) - 1
@@ -213,19 +214,7 @@ contains
         end do
       end do
     end do
-    ! Counting sort by block: next(b) the place of block b's next point.
-    next = 0
-    do p = 1, points
-      next(block_of(p) + 1) = next(block_of(p) + 1) + 1
-    end do
-    next(0) = 1
-    do i = 1, n_blocks + 1
-      next(i) = next(i) + next(i - 1)
-    end do
-    do p = 1, points
-      by_block(next(block_of(p))) = p
-      next(block_of(p)) = next(block_of(p)) + 1
-    end do
+    call counting_sort(block_of, n_blocks, by_block, starts)
   end subroutine order_by_block
 
   !> values(b, p) = entry first + b - 1 of the lattice block at octant point p (zero at d = 0 and

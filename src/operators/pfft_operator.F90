@@ -33,6 +33,7 @@ module beadmob_pfft_operator
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within, sort_keys
+  use beadmob_counting_sort, only: counting_sort
   implicit none
   private
   public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
@@ -349,7 +350,8 @@ contains
     real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
                              exact_batch(:, :, :)
     real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
-    integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), order(:), offset_start(:), next(:)
+    integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:)
+    integer(i8), allocatable :: order(:), offset_start(:)
     type(spatial_index_t) :: cells
     integer(i8), allocatable :: found(:), kept(:), unused(:)
     integer(i8) :: n_found
@@ -404,7 +406,7 @@ contains
     offsets = width**3
     stride = (2 * s - 1)**3
     chunk = max(1, int(64.0e6_dp / (8.0_dp * nb * nb)))
-    allocate (pair_offset(n_pairs), order(n_pairs), offset_start(offsets + 1), next(offsets))
+    allocate (pair_offset(n_pairs), order(n_pairs), offset_start(0:offsets + 1))
     do p = 1, n_pairs
       d = first(:, pair_row(p)) - first(:, pair_column(p)) + (reach - s)
       pair_offset(p) = 1 + d(1) + width * (d(2) + width * d(3))
@@ -431,25 +433,15 @@ contains
         allocate (approximate(nb, nb, last_pair - first_pair + 1), pair_weights(stride, last_pair - first_pair + 1), &
                   exact_batch(nb, nb, last_pair - first_pair + 1))
       end if
-      offset_start = 0
-      do p = first_pair, last_pair
-        offset_start(pair_offset(p) + 1) = offset_start(pair_offset(p) + 1) + 1
-      end do
-      offset_start(1) = 1
-      do e = 2, offsets + 1
-        offset_start(e) = offset_start(e) + offset_start(e - 1)
-      end do
-      next = offset_start(1:offsets)
-      do p = first_pair, last_pair
-        order(next(pair_offset(p))) = p
-        next(pair_offset(p)) = next(pair_offset(p)) + 1
-      end do
+      ! the chunk's pairs by offset: pair first_pair - 1 + order(k) is the chunk's k-th
+      call counting_sort(pair_offset(first_pair:last_pair), offsets, order(1:last_pair - first_pair + 1), offset_start)
       do e = 1, offsets
-        q = offset_start(e)
-        n_near = offset_start(e + 1) - q
+        q = int(offset_start(e))
+        n_near = int(offset_start(e + 1)) - q
         if (n_near == 0) cycle
         ! the offset's kernel blocks, in the order of the weights (x fastest)
-        d = first(:, pair_row(order(q))) - first(:, pair_column(order(q)))
+        p = first_pair - 1 + int(order(q))
+        d = first(:, pair_row(p)) - first(:, pair_column(p))
         k = 0
         do dz = 1 - s, s - 1
           do dy = 1 - s, s - 1
@@ -460,7 +452,7 @@ contains
           end do
         end do
         do k = 1, n_near
-          p = order(q + k - 1)
+          p = first_pair - 1 + int(order(q + k - 1))
           do axis = 1, 3
             correlation(:, axis) = 0.0_dp
             do m = 1, s
@@ -472,11 +464,11 @@ contains
                                        spread(spread(correlation(:, 2), 1, 2 * s - 1), 3, 2 * s - 1) * &
                                        spread(spread(correlation(:, 3), 1, 2 * s - 1), 2, 2 * s - 1), [stride])
         end do
-        ! approximations of these pairs, stored at their place in the chunk: order(q:) - first_pair + 1
+        ! approximations of these pairs, stored at their place in the chunk: order(q:)
         call dgemm('N', 'N', nb * nb, n_near, stride, 1.0_dp, gathered, nb * nb, pair_weights, stride, 0.0_dp, &
                    exact_batch, nb * nb)
         do k = 1, n_near
-          approximate(:, :, order(q + k - 1) - first_pair + 1) = exact_batch(:, :, k)
+          approximate(:, :, order(q + k - 1)) = exact_batch(:, :, k)
         end do
       end do
       ! C_ij = exact - approximate
