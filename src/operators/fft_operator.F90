@@ -62,7 +62,7 @@ module beadmob_fft_operator
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
                                       mirror_forward_planes => forward_planes, mirror_forward_line => forward_line, &
                                       mirror_backward_line => backward_line, mirror_backward_planes => backward_planes, &
-                                      make_mirror_buffer, destroy_mirror_buffer, &
+                                      make_mirror_buffer, destroy_mirror_buffer, mark_bead_sites, &
                                       destroy_mirror_transform, n_classes, class_signs
   use beadmob_mirror_classes, only: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, &
                                     classes_of, fold_class, unfold_class
@@ -1493,6 +1493,7 @@ contains
     PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, op%buffers(1)%slab, op%buffer_slabs(1), ierr))
     call make_mirror_classes(comm, op%table%lattice, op%axes, op%first_bead, op%n_local, op%slot, op%field_sign, &
                              op%reduced, op%buffer_slabs(1), op%classes, err)
+    call mark_bead_sites(op%reduced, op%table%lattice(op%axes, :))
   end subroutine make_class_maps
 
   !> Collective. Buffers for batched class products of up to `wanted` items, within the same

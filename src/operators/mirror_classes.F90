@@ -18,7 +18,7 @@ module beadmob_mirror_classes
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
-  use beadmob_mirror_transform, only: mirror_transform_t, n_classes, class_signs
+  use beadmob_mirror_transform, only: mirror_transform_t, n_classes, class_signs, fundamental_site
   implicit none
   private
   public :: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, classes_of, fold_class, &
@@ -144,20 +144,6 @@ contains
     mc%work = template
     mc%created = .true.
   end subroutine make_mirror_classes
-
-  !> Site l of an axis of n sites: its fundamental slot j and where it lies, k = -1 on the
-  !> mirror plane (its own image), 0 on the fundamental side, 1 beyond.
-  pure subroutine fundamental_site(l, n, j, k)
-    integer, intent(in) :: l, n
-    integer, intent(out) :: j, k
-    if (mod(n, 2) == 1) then
-      j = abs(l - (n - 1) / 2)
-      k = merge(-1, merge(0, 1, l > (n - 1) / 2), l == (n - 1) / 2)
-    else
-      j = merge(l - n / 2, n / 2 - 1 - l, l >= n / 2)
-      k = merge(0, 1, l >= n / 2)
-    end if
-  end subroutine fundamental_site
 
   subroutine destroy_mirror_classes(mc)
     type(mirror_classes_t), intent(inout) :: mc

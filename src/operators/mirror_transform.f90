@@ -38,7 +38,7 @@ module beadmob_mirror_transform
   private
   public :: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, forward_planes, &
             forward_line, backward_line, backward_planes, make_mirror_buffer, destroy_mirror_buffer, &
-            destroy_mirror_transform, n_classes, class_signs
+            destroy_mirror_transform, n_classes, class_signs, fundamental_site, mark_bead_sites
 
   !> Classes (s_f, s_m): 1 = (+, +), 2 = (-, +), 3 = (+, -), 4 = (-, -).
   integer, parameter :: n_classes = 4
@@ -66,6 +66,11 @@ module beadmob_mirror_transform
     !> where a slot is not produced or not read.
     logical :: dense(2) = .false.
     real(dp), allocatable :: matrix(:, :, :, :, :)
+    !> Where this rank's data planes hold beads (mark_bead_sites; unset: everywhere), for the dense
+    !> passes to skip the rest: row_span(:, j_m, plane) the first and last fundamental fast site
+    !> with a bead in data row (plane, middle site j_m), plane_span(:, plane) the first and last
+    !> middle site with a bead in the plane (last < first: none); local planes from 0.
+    integer, allocatable :: row_span(:, :, :), plane_span(:, :)
     type(C_PTR) :: slow_forward = C_NULL_PTR, slow_backward = C_NULL_PTR
     type(C_PTR) :: transpose_forward = C_NULL_PTR, transpose_backward = C_NULL_PTR
   end type mirror_transform_t
@@ -129,6 +134,50 @@ contains
     s(1) = merge(1, -1, mod(class - 1, 2) == 0)
     s(2) = merge(1, -1, class <= 2)
   end function class_signs
+
+  !> Site l of an axis of n sites: its fundamental slot j and where it lies, k = -1 on the
+  !> mirror plane (its own image), 0 on the fundamental side, 1 beyond.
+  pure subroutine fundamental_site(l, n, j, k)
+    integer, intent(in) :: l, n
+    integer, intent(out) :: j, k
+    if (mod(n, 2) == 1) then
+      j = abs(l - (n - 1) / 2)
+      k = merge(-1, merge(0, 1, l > (n - 1) / 2), l == (n - 1) / 2)
+    else
+      j = merge(l - n / 2, n / 2 - 1 - l, l >= n / 2)
+      k = merge(0, 1, l >= n / 2)
+    end if
+  end subroutine fundamental_site
+
+  !> The sites that hold beads: sites(:, bead) = the lattice site (fast, middle, slow; from 0) of
+  !> every bead of the operator, on every rank. The dense passes then transform only the stretch
+  !> of each data row between its first and last bead and skip rows and planes without any
+  !> (a hollow or thin body leaves most of its box empty: ring_1mm's rows hold beads on a sixth
+  !> of their fundamental sites). Only the sites between them are read forward, and only they
+  !> are written back, which is all the unfold reads (mirror_classes.F90).
+  pure subroutine mark_bead_sites(t, sites)
+    type(mirror_transform_t), intent(inout) :: t
+    integer, intent(in) :: sites(:, :)
+    integer :: bead, j(2), k, plane, axis
+    if (allocated(t%row_span)) deallocate (t%row_span, t%plane_span)
+    allocate (t%row_span(2, 0:t%fundamental(2) - 1, 0:max(int(t%planes), 1) - 1), &
+              t%plane_span(2, 0:max(int(t%planes), 1) - 1))
+    t%row_span(1, :, :) = huge(1)
+    t%row_span(2, :, :) = -1
+    t%plane_span(1, :) = huge(1)
+    t%plane_span(2, :) = -1
+    do bead = 1, size(sites, 2)
+      plane = sites(3, bead) - int(t%first_plane)
+      if (plane < 0 .or. plane >= t%planes) cycle
+      do axis = 1, 2
+        call fundamental_site(sites(axis, bead), t%data(axis), j(axis), k)
+      end do
+      t%row_span(1, j(2), plane) = min(t%row_span(1, j(2), plane), j(1))
+      t%row_span(2, j(2), plane) = max(t%row_span(2, j(2), plane), j(1))
+      t%plane_span(1, plane) = min(t%plane_span(1, plane), j(2))
+      t%plane_span(2, plane) = max(t%plane_span(2, plane), j(2))
+    end do
+  end subroutine mark_bead_sites
 
   !> Collective. The layout of `fields` fields (their mirror signs along the fast and the middle
   !> axis: sign(field, 1:2), fields with equal signs best consecutive) on the padded box `box`
@@ -441,8 +490,7 @@ contains
       parity = s(axis) * t%run_sign(axis, run)
       call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
       if (t%dense(axis)) then
-        call dense_pass(t, b, run, axis, t%matrix(:t%half(axis), :t%half(axis), merge(1, 2, parity > 0), direction, axis), &
-                        direction)
+        call dense_pass(t, b, run, axis, t%matrix(:, :, merge(1, 2, parity > 0), direction, axis), direction)
         cycle
       end if
       call pass_kind(t, axis, parity, direction, kind, n, offset)
@@ -508,27 +556,40 @@ contains
   !> plane for the middle axis, per data row for the fast axis). Only the fundamental sites hold
   !> anything forward (the fold zeroes the rest) and only they are read back (the fast pass runs on
   !> their rows, the unfold reads them), so the sites' side of the matrix is cut to them: half the
-  !> flops of the whole matrix.
+  !> flops of the whole matrix; with the beads' sites marked (mark_bead_sites), to the stretch
+  !> between the first and the last bead of the row or plane, and a row or plane without any is
+  !> skipped (forward its slots stay the fold's zeros; back nothing reads them).
   subroutine dense_pass(t, b, run, axis, matrix, direction)
     type(mirror_transform_t), intent(in) :: t
     type(mirror_buffer_t), intent(inout) :: b
     integer, intent(in) :: run, axis, direction
-    real(dp), intent(in) :: matrix(:, :)
-    integer :: slot_stride, segments, segment_stride, length, o, h, inputs, outputs
+    !> The pass's matrix in the first half(axis) rows and columns; explicit shape, so that a stretch
+    !> of its columns or rows is passed from its first element
+    real(dp), intent(in) :: matrix(size(t%matrix, 1), size(t%matrix, 2))
+    integer :: slot_stride, segments, segment_stride, length, o, h, span(2), sites, ld
     integer(i8) :: plane, base
     real(dp) :: product(t%half(1) * t%fields * t%half(2))
     call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
     h = t%half(axis)
-    inputs = merge(t%fundamental(axis), h, direction == forward)
-    outputs = merge(h, t%fundamental(axis), direction == forward)
+    ld = size(matrix, 1)
     do plane = 0, t%planes - 1
       do o = 0, segments - 1
+        span = [0, t%fundamental(axis) - 1]
+        if (allocated(t%row_span)) span = merge(t%row_span(:, o, plane), t%plane_span(:, plane), axis == 1)
+        if (span(2) < span(1)) cycle
+        sites = span(2) - span(1) + 1
         base = plane * t%half(2) * t%row + int(o, i8) * segment_stride + run_start(t, run)
-        ! The slots of the vectors are columns slot_stride apart: product = X M^T, M's first
-        ! `outputs` rows and `inputs` columns.
-        call dgemm('N', 'T', length, outputs, inputs, 1.0_dp, b%slab(base + 1:), slot_stride, matrix, h, 0.0_dp, &
-                   product, length)
-        call place(product, b%slab(base + 1:), length, outputs, slot_stride)
+        ! The slots of the vectors are columns slot_stride apart: product = X M^T, with M's
+        ! columns (forward) or rows (back) cut to the sites span(1) .. span(2).
+        if (direction == forward) then
+          call dgemm('N', 'T', length, h, sites, 1.0_dp, b%slab(base + int(span(1), i8) * slot_stride + 1:), slot_stride, &
+                     matrix(1, span(1) + 1), ld, 0.0_dp, product, length)
+          call place(product, b%slab(base + 1:), length, h, slot_stride)
+        else
+          call dgemm('N', 'T', length, sites, h, 1.0_dp, b%slab(base + 1:), slot_stride, matrix(span(1) + 1, 1), ld, &
+                     0.0_dp, product, length)
+          call place(product, b%slab(base + int(span(1), i8) * slot_stride + 1:), length, sites, slot_stride)
+        end if
       end do
     end do
   end subroutine dense_pass

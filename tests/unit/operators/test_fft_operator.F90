@@ -39,7 +39,7 @@ program test_fft_operator
   type(test_suite_t) :: suite
   type(run_context_t) :: ctx
   PetscErrorCode :: ierr
-  real(dp), allocatable :: cone(:, :), box(:, :), random_set(:, :), plate(:, :), line(:, :)
+  real(dp), allocatable :: cone(:, :), box(:, :), random_set(:, :), plate(:, :), line(:, :), ring(:, :)
   real(dp) :: one(3, 1)
   integer :: order
 
@@ -64,6 +64,7 @@ program test_fft_operator
   random_set = random_subset([6, 5, 4], 0.55_dp)
   plate = box_beads([5, 4, 1])
   line = box_beads([1, 1, 6])
+  ring = open_ring()
   one = 0.0_dp
   call check(suite, size(cone, 2) > 20 .and. size(random_set, 2) > 30, 'test bead sets are not trivial')
 
@@ -81,6 +82,9 @@ program test_fft_operator
   call compare_classes(box, 2, '3 x 2 x 4 box', [.true., .true., .true.])
   call compare_classes(box, 1, '3 x 2 x 4 box', [.true., .true., .true.])
   call compare_classes(plate, 2, 'flat 5 x 4 plate', [.true., .true., .true.])
+  ! Rows whose beads start off the mirror plane, rows without beads: the dense passes on the
+  ! stretch between a row's first and last bead (mirror_transform.f90, mark_bead_sites).
+  call compare_classes(ring, 2, 'open ring', [.true., .true., .false.])
   call compare_companion(cone, 'small cone', .true.)
   call compare_companion(cone, 'small cone (whole box)', .false.)
   call compare_companion(box, '3 x 2 x 4 box', .true.)
@@ -390,6 +394,29 @@ contains
     end do
     beads = buffer(:, 1:n)
   end function small_cone
+
+  !> A ring in the x-z plane (2.4 <= |(x, z)| <= 4.5), three layers thick in y where
+  !> |(x, z)| <= 3.5 and one elsewhere, open at the top (z >= 3, |x| <= 1): mirror symmetric in x
+  !> and y only; its hole and thin rim leave rows with beads away from the mirror planes and rows
+  !> with none.
+  function open_ring() result(beads)
+    real(dp), allocatable :: beads(:, :)
+    integer :: x, y, z, n
+    real(dp) :: buffer(3, 9 * 3 * 9), r
+    n = 0
+    do z = -4, 4
+      do y = -1, 1
+        do x = -4, 4
+          r = sqrt(real(x * x + z * z, dp))
+          if (r < 2.4_dp .or. r > 4.5_dp .or. (z >= 3 .and. abs(x) <= 1)) cycle
+          if (y /= 0 .and. r > 3.5_dp) cycle
+          n = n + 1
+          buffer(:, n) = [x, y, z]
+        end do
+      end do
+    end do
+    beads = buffer(:, 1:n)
+  end function open_ring
 
   function box_beads(counts) result(beads)
     integer, intent(in) :: counts(3)
