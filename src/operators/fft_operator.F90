@@ -1615,39 +1615,39 @@ contains
     real(dp) :: z(row_chunk, 2, op%block_size), w(row_chunk, 2, op%block_size)
     real(dp), pointer, contiguous :: flat(:)
     integer(i8) :: row_start
-    integer :: k, t, i, half, row, offset, n, at
+    integer :: k, t, half, row, offset, n, first, last, step
     flat(1:size(kernel, kind=i8)) => kernel
     half = op%reduced%half(1)
+    z = 0   ! a last, shorter chunk leaves the rest zero
     do row = 1, op%box(3) / 2 + 1
       row_start = (int(line - 1, i8) * (op%box(3) / 2 + 1) + row - 1) * size(kernel, 1) * op%row_stride
       do offset = 0, half - 1, row_chunk
         n = min(row_chunk, half - offset)
         do k = 1, size(classes)
           associate (values => op%buffers(k)%spectrum(:, row))
-            z = 0
             do t = 1, op%block_size
-              do i = 1, n
-                at = 1 + op%reduced%field_base(t) + (offset + i - 1) * op%reduced%field_step(t)
-                if (op%slow_even(t)) then
-                  z(i, 1, t) = real(values(at), dp)
-                  z(i, 2, t) = aimag(values(at))
-                else
-                  z(i, 1, t) = -aimag(values(at))
-                  z(i, 2, t) = real(values(at), dp)
-                end if
-              end do
+              step = op%reduced%field_step(t)
+              first = 1 + op%reduced%field_base(t) + offset * step
+              last = first + (n - 1) * step
+              if (op%slow_even(t)) then
+                z(1:n, 1, t) = real(values(first:last:step), dp)
+                z(1:n, 2, t) = aimag(values(first:last:step))
+              else
+                z(1:n, 1, t) = -aimag(values(first:last:step))
+                z(1:n, 2, t) = real(values(first:last:step), dp)
+              end if
             end do
             call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
                                op%class_factor(:, classes(k)), z, w)
             do t = 1, op%block_size
-              do i = 1, n
-                at = 1 + op%reduced%field_base(t) + (offset + i - 1) * op%reduced%field_step(t)
-                if (op%slow_even(t)) then
-                  values(at) = cmplx(w(i, 1, t), w(i, 2, t), kind=C_DOUBLE_COMPLEX)
-                else
-                  values(at) = cmplx(w(i, 2, t), -w(i, 1, t), kind=C_DOUBLE_COMPLEX)
-                end if
-              end do
+              step = op%reduced%field_step(t)
+              first = 1 + op%reduced%field_base(t) + offset * step
+              last = first + (n - 1) * step
+              if (op%slow_even(t)) then
+                values(first:last:step) = cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
+              else
+                values(first:last:step) = cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
+              end if
             end do
           end associate
         end do
