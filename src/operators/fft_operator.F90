@@ -1286,6 +1286,7 @@ contains
     flat(1:size(kernel, kind=i8)) => kernel
     n_slow = op%box(3)
     half = op%transform%half
+    z = 0   ! a last, shorter chunk leaves the rest zero
     do slow = 0, n_slow / 2
       row_start = (int(line - 1, i8) * (n_slow / 2 + 1) + slow) * size(kernel, 1) * op%row_stride
       do offset = 0, half - 1, row_chunk
@@ -1294,7 +1295,6 @@ contains
         image = offset + int(half, i8) * (n_slow - slow)
         do j = 1, size(spectra)
           associate (x => spectra(j)%values)
-            z = 0
             do t = 1, op%n_even
               z(1:n, 1, t) = real(x(t, f + 1:f + n), dp)
               z(1:n, 2, t) = aimag(x(t, f + 1:f + n))
