@@ -62,7 +62,7 @@ module beadmob_fft_operator
   use beadmob_mirror_transform, only: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, &
                                       mirror_forward_planes => forward_planes, mirror_forward_line => forward_line, &
                                       mirror_backward_line => backward_line, mirror_backward_planes => backward_planes, &
-                                      make_mirror_buffer, destroy_mirror_buffer, mark_bead_sites, &
+                                      make_mirror_buffer, destroy_mirror_buffer, &
                                       destroy_mirror_transform, n_classes, class_signs
   use beadmob_mirror_classes, only: mirror_classes_t, make_mirror_classes, destroy_mirror_classes, &
                                     classes_of, fold_class, unfold_class
@@ -105,7 +105,7 @@ module beadmob_fft_operator
     !> the sign of packed entry e in class c relative to the kernel (theory.md T4).
     logical :: mirrored = .false.
     logical :: use_mirrors = .true.         ! set before create: mirror classes where they apply
-    integer :: dense_pass_limit = -1        ! set before create (tests): size_mirror_transform's, -1 its default
+    integer :: dense_pass_limit = -1        ! set before create (tests): size_mirror_transform's, -1 its rule
     type(mirror_transform_t) :: reduced
     type(mirror_buffer_t), allocatable :: buffers(:)   ! the first, then the batch's copies
     Vec, allocatable :: buffer_slabs(:)
@@ -1433,10 +1433,12 @@ contains
                  ' with ' // str(op%block_size) // ' fields has more entries than 32-bit PETSc indices address')
       return
     end if
+    ! The products fold and unfold the beads' sites only (mirror_classes.F90).
     if (op%dense_pass_limit >= 0) then
-      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, op%dense_pass_limit)
+      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, op%dense_pass_limit, &
+                                 sites=op%table%lattice(op%axes, :))
     else
-      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err)
+      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, sites=op%table%lattice(op%axes, :))
     end if
     allocate (op%buffers(1), op%buffer_slabs(0))
     made = .not. err%failed
@@ -1493,7 +1495,6 @@ contains
     PetscCallA(VecCreateMPIWithArray(comm, 1, slab_length, PETSC_DECIDE, op%buffers(1)%slab, op%buffer_slabs(1), ierr))
     call make_mirror_classes(comm, op%table%lattice, op%axes, op%first_bead, op%n_local, op%slot, op%field_sign, &
                              op%reduced, op%buffer_slabs(1), op%classes, err)
-    call mark_bead_sites(op%reduced, op%table%lattice(op%axes, :))
   end subroutine make_class_maps
 
   !> Collective. Buffers for batched class products of up to `wanted` items, within the same

@@ -38,7 +38,7 @@ module beadmob_mirror_transform
   private
   public :: mirror_transform_t, mirror_buffer_t, size_mirror_transform, make_mirror_plans, forward_planes, &
             forward_line, backward_line, backward_planes, make_mirror_buffer, destroy_mirror_buffer, &
-            destroy_mirror_transform, n_classes, class_signs, fundamental_site, mark_bead_sites
+            destroy_mirror_transform, n_classes, class_signs, fundamental_site
 
   !> Classes (s_f, s_m): 1 = (+, +), 2 = (-, +), 3 = (+, -), 4 = (-, -).
   integer, parameter :: n_classes = 4
@@ -66,10 +66,10 @@ module beadmob_mirror_transform
     !> where a slot is not produced or not read.
     logical :: dense(2) = .false.
     real(dp), allocatable :: matrix(:, :, :, :, :)
-    !> Where this rank's data planes hold beads (mark_bead_sites; unset: everywhere), for the dense
-    !> passes to skip the rest: row_span(:, j_m, plane) the first and last fundamental fast site
-    !> with a bead in data row (plane, middle site j_m), plane_span(:, plane) the first and last
-    !> middle site with a bead in the plane (last < first: none); local planes from 0.
+    !> Where the data planes hold beads (size_mirror_transform's sites; unset: everywhere), for the
+    !> dense passes to skip the rest: row_span(:, j_m, plane) the first and last fundamental fast
+    !> site with a bead in data row (plane, middle site j_m), plane_span(:, plane) the first and last
+    !> middle site with a bead in the plane (last < first: none); every data plane, from 0.
     integer, allocatable :: row_span(:, :, :), plane_span(:, :)
     type(C_PTR) :: slow_forward = C_NULL_PTR, slow_backward = C_NULL_PTR
     type(C_PTR) :: transpose_forward = C_NULL_PTR, transpose_backward = C_NULL_PTR
@@ -94,10 +94,16 @@ module beadmob_mirror_transform
   end type mirror_buffer_t
 
   integer, parameter :: forward = 1, backward = 2
-  !> Default of size_mirror_transform's dense_limit: the rings' middle axes (71 and 91 slots) pass
-  !> faster as matrix products too (ring_1mm's whole process 0.92x of 64's, 4 pairs); the 1e6
-  !> sphere's 126 slots stay with FFTW.
-  integer, parameter :: default_dense_limit = 96
+  !> Which axes pass by matrix products (dense_axes): an axis of h slots does when its rows'
+  !> stretches of bead sites are on average shorter than dense_factor log2 h (the matrix product's
+  !> flops follow the stretch, FFTW's r2r transform's h log2 h; FFTW runs the middle axis's long
+  !> strides and the fast axis's short ones at several times fewer flops per second than DGEMM).
+  !> Middle axis: a 3-bead thick disc of radius 100 beads (211 slots, its rows' mean stretch 82)
+  !> is 1.25x faster as matrix products, one of radius 160 (331 slots, 125) as fast either way, so
+  !> 15 (= 125 / log2 331). Fast axis: 7.3, the former fixed limit of 96 slots for full rows
+  !> (48 / log2 96), which shells' short rows pass far below (the 1e6-bead sphere's 129 slots as
+  !> matrix products on both axes: its job 1.23x faster).
+  real(dp), parameter :: dense_factor(2) = [7.3_dp, 15.0_dp]
 
   interface
     subroutine fftw_execute_r2r(p, in, out) bind(C, name='fftw_execute_r2r')
@@ -149,26 +155,23 @@ contains
     end if
   end subroutine fundamental_site
 
-  !> The sites that hold beads: sites(:, bead) = the lattice site (fast, middle, slow; from 0) of
-  !> every bead of the operator, on every rank. The dense passes then transform only the stretch
-  !> of each data row between its first and last bead and skip rows and planes without any
-  !> (a hollow or thin body leaves most of its box empty: ring_1mm's rows hold beads on a sixth
-  !> of their fundamental sites). Only the sites between them are read forward, and only they
-  !> are written back, which is all the unfold reads (mirror_classes.F90).
+  !> row_span and plane_span from sites(:, bead), the lattice site (fast, middle, slow; from 0)
+  !> of every bead. A hollow or thin body leaves most of its box empty (ring_1mm's rows hold beads
+  !> on a sixth of their fundamental sites, a sphere's shell on its two ends): the dense passes
+  !> then transform only the stretch of each row between its first and last bead and skip rows and
+  !> planes without any. Only the sites between them are read forward, and only they are written
+  !> back, which is all the unfold reads (mirror_classes.F90).
   pure subroutine mark_bead_sites(t, sites)
     type(mirror_transform_t), intent(inout) :: t
     integer, intent(in) :: sites(:, :)
     integer :: bead, j(2), k, plane, axis
-    if (allocated(t%row_span)) deallocate (t%row_span, t%plane_span)
-    allocate (t%row_span(2, 0:t%fundamental(2) - 1, 0:max(int(t%planes), 1) - 1), &
-              t%plane_span(2, 0:max(int(t%planes), 1) - 1))
+    allocate (t%row_span(2, 0:t%fundamental(2) - 1, 0:t%data(3) - 1), t%plane_span(2, 0:t%data(3) - 1))
     t%row_span(1, :, :) = huge(1)
     t%row_span(2, :, :) = -1
     t%plane_span(1, :) = huge(1)
     t%plane_span(2, :) = -1
     do bead = 1, size(sites, 2)
-      plane = sites(3, bead) - int(t%first_plane)
-      if (plane < 0 .or. plane >= t%planes) cycle
+      plane = sites(3, bead)
       do axis = 1, 2
         call fundamental_site(sites(axis, bead), t%data(axis), j(axis), k)
       end do
@@ -179,15 +182,34 @@ contains
     end do
   end subroutine mark_bead_sites
 
+  !> The axes that pass by matrix products (dense_factor): the mean stretch of bead sites of the
+  !> fast axis's data rows and of the middle axis's planes (rows and planes without beads count
+  !> 0), the whole fundamental sites without row_span. The same on every rank (all planes).
+  pure function dense_axes(t) result(dense)
+    type(mirror_transform_t), intent(in) :: t
+    logical :: dense(2)
+    real(dp) :: mean(2)
+    if (allocated(t%row_span)) then
+      mean(1) = real(sum(max(t%row_span(2, :, :) - t%row_span(1, :, :) + 1, 0)), dp) / size(t%row_span(1, :, :))
+      mean(2) = real(sum(max(t%plane_span(2, :) - t%plane_span(1, :) + 1, 0)), dp) / size(t%plane_span(1, :))
+    else
+      mean = real(t%fundamental, dp)
+    end if
+    dense = mean < dense_factor * log(real(t%half, dp)) / log(2.0_dp)
+  end function dense_axes
+
   !> Collective. The layout of `fields` fields (their mirror signs along the fast and the middle
   !> axis: sign(field, 1:2), fields with equal signs best consecutive) on the padded box `box`
-  !> (fast and middle even, >= 2 data - 1) with `data` bead sites per axis. dense_limit (default
-  !> 64): the most slots an axis passes by matrix products (0: FFTW's r2r transforms only).
-  subroutine size_mirror_transform(comm, sign, box, data, t, err, dense_limit)
+  !> (fast and middle even, >= 2 data - 1) with `data` bead sites per axis. sites(:, bead): the
+  !> lattice site (fast, middle, slow; from 0) of every bead, on every rank, when the transform
+  !> is only ever applied to fields on them (mark_bead_sites; without it, the whole planes).
+  !> Which axes pass by matrix products: dense_axes, or with dense_limit those of at most that
+  !> many slots (0: FFTW's r2r transforms only).
+  subroutine size_mirror_transform(comm, sign, box, data, t, err, dense_limit, sites)
     integer, intent(in) :: comm, sign(:, :), box(3), data(3)
     type(mirror_transform_t), intent(inout) :: t
     type(error_t), intent(inout) :: err
-    integer, intent(in), optional :: dense_limit
+    integer, intent(in), optional :: dense_limit, sites(:, :)
     integer(C_INTPTR_T) :: forward_alloc, backward_alloc, back(4)
     integer :: f, runs
     t%fields = size(sign, 1)
@@ -203,7 +225,9 @@ contains
     ! Even: the slow axis transforms the real numbers of a row in pairs (forward_line); an odd
     ! count gets one unused number.
     t%row = 2 * ((t%half(1) * t%fields + 1) / 2)
-    t%dense = t%half <= default_dense_limit
+    if (allocated(t%row_span)) deallocate (t%row_span, t%plane_span)
+    if (present(sites)) call mark_bead_sites(t, sites)
+    t%dense = dense_axes(t)
     if (present(dense_limit)) t%dense = t%half <= dense_limit
     if (any(t%dense)) call make_pass_matrices(t)
     forward_alloc = fftw_mpi_local_size_many_transposed(2, [int(data(3), C_INTPTR_T), int(t%half(2), C_INTPTR_T)], &
@@ -568,14 +592,16 @@ contains
     real(dp), intent(in) :: matrix(size(t%matrix, 1), size(t%matrix, 2))
     integer :: slot_stride, segments, segment_stride, length, o, h, span(2), sites, ld
     integer(i8) :: plane, base
-    real(dp) :: product(t%half(1) * t%fields * t%half(2))
+    real(dp), allocatable :: product(:)   ! on the heap: a large box's would not fit on the stack
     call pass_geometry(t, run, axis, slot_stride, segments, segment_stride, length)
     h = t%half(axis)
     ld = size(matrix, 1)
+    allocate (product(length * h))
     do plane = 0, t%planes - 1
       do o = 0, segments - 1
         span = [0, t%fundamental(axis) - 1]
-        if (allocated(t%row_span)) span = merge(t%row_span(:, o, plane), t%plane_span(:, plane), axis == 1)
+        if (allocated(t%row_span)) span = merge(t%row_span(:, o, plane + t%first_plane), &
+                                                t%plane_span(:, plane + t%first_plane), axis == 1)
         if (span(2) < span(1)) cycle
         sites = span(2) - span(1) + 1
         base = plane * t%half(2) * t%row + int(o, i8) * segment_stride + run_start(t, run)
