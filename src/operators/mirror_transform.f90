@@ -60,10 +60,9 @@ module beadmob_mirror_transform
     integer, allocatable :: field_base(:), field_step(:)   ! by field (row layout above)
     !> pass(run, axis, direction, class): r2r plans (null: nothing to transform)
     type(C_PTR), allocatable :: pass(:, :, :, :)
-    !> Axes of at most dense_limit slots (size_mirror_transform) pass by matrix products instead (DGEMM; FFTW's r2r
-    !> transforms of a few tens of points on strided data cost several times their flops):
-    !> matrix(:, :, parity, direction, axis), the same transform as a matrix on the slots, zero
-    !> where a slot is not produced or not read.
+    !> The axes that pass by matrix products instead (DGEMM; dense_axes): matrix(:, :, parity,
+    !> direction, axis), the same transform as a matrix on the slots, zero where a slot is not
+    !> produced or not read.
     logical :: dense(2) = .false.
     real(dp), allocatable :: matrix(:, :, :, :, :)
     !> Where the data planes hold beads (size_mirror_transform's sites; unset: everywhere), for the
