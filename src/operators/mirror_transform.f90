@@ -100,7 +100,7 @@ module beadmob_mirror_transform
   !> Middle axis: a 3-bead thick disc of radius 100 beads (211 slots, its rows' mean stretch 82)
   !> is 1.25x faster as matrix products, one of radius 160 (331 slots, 125) as fast either way, so
   !> 15 (= 125 / log2 331). Fast axis: 7.3, the former fixed limit of 96 slots for full rows
-  !> (48 / log2 96), which shells' short rows pass far below (the 1e6-bead sphere's 129 slots as
+  !> (48 / log2 96), which shells' short rows pass far below (the 1e6-bead sphere's 126 slots as
   !> matrix products on both axes: its job 1.23x faster).
   real(dp), parameter :: dense_factor(2) = [7.3_dp, 15.0_dp]
 

@@ -92,6 +92,10 @@ program test_fft_operator
   call compare_classes(cone, 2, 'small cone (r2r passes)', [.true., .true., .false.], dense_limit=0)
   call compare_classes(box, 2, '3 x 2 x 4 box (r2r passes)', [.true., .true., .true.], dense_limit=0)
   call compare_classes(plate, 2, 'flat 5 x 4 plate (r2r passes)', [.true., .true., .true.], dense_limit=0)
+  ! The ring's fast axis (y: 4 slots) by matrix products on the stretches, its middle axis (x: 10
+  ! slots) by r2r transforms, which read and write whole rows.
+  call compare_classes(ring, 2, 'open ring (fast axis matrix products, middle r2r)', [.true., .true., .false.], &
+                       dense_limit=5)
   call compare(line, 2, 0, 'line of 6 beads')
   call compare(one, 2, 0, 'one bead')
 
