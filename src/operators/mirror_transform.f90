@@ -5,8 +5,9 @@
 !> transform (even) or -i times a sine transform (odd) of its half, so the 3-D transform of the
 !> class is: along the fast and the middle axis cosine and sine transforms (DCT/DST of type I
 !> when the centre is a site, type II/III when it falls between two sites; as matrix products on
-!> axes of up to 64 slots, else FFTW's real-to-real transforms) on the sites and frequencies
-!> 0 .. n/2, then the slow axis as real FFTs (the data are real; two lines as one complex FFT). Its
+!> the beads' stretches where dense_axes finds them cheaper, else FFTW's real-to-real transforms)
+!> on the sites and frequencies 0 .. n/2, then the slow axis as real FFTs (the data are real; two
+!> lines as one complex FFT). Its
 !> spectrum, [lines][k_slow <= n_slow/2][k_fast <= n_fast/2][fields] with the middle-axis
 !> frequencies 0 .. n_middle/2 split over the ranks, is the octant of frequencies that
 !> kernel_spectrum.f90 gives; the operator multiplies it there (fft_operator.F90). About a
