@@ -1279,7 +1279,7 @@ contains
     real(dp), intent(in), contiguous, target :: kernel(:, :)
     type(spectrum_ref_t), intent(in) :: spectra(:)
     integer, intent(in) :: line
-    real(dp) :: z(row_chunk, 2, op%block_size), w(row_chunk, 2, op%block_size), sign_t
+    real(dp) :: z(row_chunk, 2, op%block_size), w(row_chunk, 2, op%block_size)
     real(dp), pointer, contiguous :: flat(:)
     integer(i8) :: row_start, f, image
     integer :: n_slow, half, slow, offset, n, j, t
@@ -1295,48 +1295,64 @@ contains
         image = offset + int(half, i8) * (n_slow - slow)
         do j = 1, size(spectra)
           associate (x => spectra(j)%values)
-            do t = 1, op%n_even
-              z(1:n, 1, t) = real(x(t, f + 1:f + n), dp)
-              z(1:n, 2, t) = aimag(x(t, f + 1:f + n))
-            end do
-            do t = op%n_even + 1, op%block_size
-              z(1:n, 1, t) = -aimag(x(t, f + 1:f + n))
-              z(1:n, 2, t) = real(x(t, f + 1:f + n), dp)
+            do t = 1, op%block_size
+              call to_real_form(x(t, f + 1:f + n), t <= op%n_even, 1.0_dp, z(:, :, t))
             end do
             call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
                                op%unit_factor, z, w)
-            do t = 1, op%n_even
-              x(t, f + 1:f + n) = cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
-            end do
-            do t = op%n_even + 1, op%block_size
-              x(t, f + 1:f + n) = cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
+            do t = 1, op%block_size
+              call from_real_form(w(:, :, t), t <= op%n_even, 1.0_dp, x(t, f + 1:f + n))
             end do
             if (slow == 0 .or. 2 * slow == n_slow) cycle   ! the row is its own image
             do t = 1, op%block_size
-              sign_t = op%mirror_sign(t)
-              if (t <= op%n_even) then
-                z(1:n, 1, t) = sign_t * real(x(t, image + 1:image + n), dp)
-                z(1:n, 2, t) = sign_t * aimag(x(t, image + 1:image + n))
-              else
-                z(1:n, 1, t) = -sign_t * aimag(x(t, image + 1:image + n))
-                z(1:n, 2, t) = sign_t * real(x(t, image + 1:image + n), dp)
-              end if
+              call to_real_form(x(t, image + 1:image + n), t <= op%n_even, op%mirror_sign(t), z(:, :, t))
             end do
             call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
                                op%unit_factor, z, w)
             do t = 1, op%block_size
-              sign_t = op%mirror_sign(t)
-              if (t <= op%n_even) then
-                x(t, image + 1:image + n) = sign_t * cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
-              else
-                x(t, image + 1:image + n) = sign_t * cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
-              end if
+              call from_real_form(w(:, :, t), t <= op%n_even, op%mirror_sign(t), x(t, image + 1:image + n))
             end do
           end associate
         end do
       end do
     end do
   end subroutine multiply_spectra
+
+  !> One field's values x = u + i v at a chunk's frequencies, times factor, as the two real
+  !> columns chunk_product (frequency_rows.f90) multiplies, in the real form of the module
+  !> header: (u, v) for a field even along the slow axis, (-v, u), i.e. -i x, for an odd one. The
+  !> rows of z past size(x) are left as they are.
+  pure subroutine to_real_form(x, slow_even, factor, z)
+    complex(C_DOUBLE_COMPLEX), intent(in) :: x(:)
+    logical, intent(in) :: slow_even
+    real(dp), intent(in) :: factor
+    real(dp), intent(inout) :: z(:, :)   ! (row_chunk, 2)
+    integer :: n
+    n = size(x)
+    if (slow_even) then
+      z(1:n, 1) = factor * real(x, dp)
+      z(1:n, 2) = factor * aimag(x)
+    else
+      z(1:n, 1) = -factor * aimag(x)
+      z(1:n, 2) = factor * real(x, dp)
+    end if
+  end subroutine to_real_form
+
+  !> The inverse of to_real_form: x = factor (w1 + i w2) for an even field, factor i (w1 + i w2)
+  !> for an odd one.
+  pure subroutine from_real_form(w, slow_even, factor, x)
+    real(dp), intent(in) :: w(:, :)      ! (row_chunk, 2)
+    logical, intent(in) :: slow_even
+    real(dp), intent(in) :: factor
+    complex(C_DOUBLE_COMPLEX), intent(inout) :: x(:)
+    integer :: n
+    n = size(x)
+    if (slow_even) then
+      x = factor * cmplx(w(1:n, 1), w(1:n, 2), kind=C_DOUBLE_COMPLEX)
+    else
+      x = factor * cmplx(w(1:n, 2), -w(1:n, 1), kind=C_DOUBLE_COMPLEX)
+    end if
+  end subroutine from_real_form
 
   !> The FFT axes (op%axes) and whether the products run in mirror classes (op%mirrored): when
   !> the bead set is its own mirror image along at least two lattice axes, two of them are the
@@ -1630,13 +1646,7 @@ contains
               step = op%reduced%field_step(t)
               first = 1 + op%reduced%field_base(t) + offset * step
               last = first + (n - 1) * step
-              if (op%slow_even(t)) then
-                z(1:n, 1, t) = real(values(first:last:step), dp)
-                z(1:n, 2, t) = aimag(values(first:last:step))
-              else
-                z(1:n, 1, t) = -aimag(values(first:last:step))
-                z(1:n, 2, t) = real(values(first:last:step), dp)
-              end if
+              call to_real_form(values(first:last:step), op%slow_even(t), 1.0_dp, z(:, :, t))
             end do
             call chunk_product(op%block_size, op%row_stride, flat(row_start + offset + 1:), op%entry_read, &
                                op%class_factor(:, classes(k)), z, w)
@@ -1644,11 +1654,7 @@ contains
               step = op%reduced%field_step(t)
               first = 1 + op%reduced%field_base(t) + offset * step
               last = first + (n - 1) * step
-              if (op%slow_even(t)) then
-                values(first:last:step) = cmplx(w(1:n, 1, t), w(1:n, 2, t), kind=C_DOUBLE_COMPLEX)
-              else
-                values(first:last:step) = cmplx(w(1:n, 2, t), -w(1:n, 1, t), kind=C_DOUBLE_COMPLEX)
-              end if
+              call from_real_form(w(:, :, t), op%slow_even(t), 1.0_dp, values(first:last:step))
             end do
           end associate
         end do
