@@ -13,7 +13,8 @@ module beadmob_multipole_basis
   use beadmob_quadrature, only: sphere_rule
   implicit none
   private
-  public :: multipole_basis_t, make_multipole_basis, basis_size, evaluate_densities, evaluate_fields, bead_radius
+  public :: multipole_basis_t, make_multipole_basis, basis_size, evaluate_densities, evaluate_fields, bead_radius, &
+            inversion_parity
 
   real(dp), parameter :: bead_radius = 0.5_dp
 
@@ -34,6 +35,14 @@ contains
     integer, intent(in) :: order, potential_order
     basis_size = 2 * order * (order + 2) + potential_order * (potential_order + 2)
   end function basis_size
+
+  !> Inversion parity of a density of degree n, family sigma: phi(-y) = p phi(y) with
+  !> p = (-1)^(n-1) for sigma = 0, 2 and (-1)^n for sigma = 1 (grad R_n, y x grad R_n, grad I_n).
+  !> Its single-layer field has the same parity, so a pair block obeys A(-d)_ab = p_a p_b A(d)_ab.
+  pure integer function inversion_parity(n, sigma)
+    integer, intent(in) :: n, sigma
+    inversion_parity = merge(-1, 1, mod(n + merge(0, 1, sigma == 1), 2) == 1)
+  end function inversion_parity
 
   !> The basis of order L with the sigma = 2 family up to degree L2. `azimuthal_orders`, when
   !> given, keeps only functions with |k| in that list (exact for pairs on the z axis, whose

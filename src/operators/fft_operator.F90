@@ -54,7 +54,7 @@ module beadmob_fft_operator
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
-  use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_multipole_basis, only: multipole_basis_t, inversion_parity
   use beadmob_pair_blocks, only: self_block
   use beadmob_block_table, only: block_table_t, make_block_table, lattice_block
   use beadmob_kernel_spectrum, only: kernel_octant_t, kernel_spectrum
@@ -692,12 +692,6 @@ contains
       op%inversion_even(op%slot(a)) = even(a)
     end do
   end subroutine order_by_parity
-
-  !> Inversion parity of a basis density of degree n, family sigma (see the module header).
-  pure integer function inversion_parity(n, sigma)
-    integer, intent(in) :: n, sigma
-    inversion_parity = merge(-1, 1, mod(n + merge(0, 1, sigma == 1), 2) == 1)
-  end function inversion_parity
 
   !> The kernel's storage rests on A(-d) = A(d)^T and A(-d) = P A(d) P: refuse a table that
   !> breaks them beyond rounding (e.g. a basis function without definite parity). A violation

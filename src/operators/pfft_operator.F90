@@ -20,7 +20,7 @@ module beadmob_pfft_operator
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str
   use beadmob_progress, only: progress_line, progress_seconds
-  use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_multipole_basis, only: multipole_basis_t, inversion_parity
   use beadmob_pair_blocks, only: self_block
   use beadmob_lapack, only: dgemm
   use beadmob_axial_table, only: axial_table_t, make_axial_table, rotated_block
@@ -336,7 +336,9 @@ contains
   !> two beads' Lagrange weights, K(0) = S, K(d) = A(d). Pairs with the same
   !> stencil offset D = g_i - g_j use the same (2s - 1)^3 kernel blocks: they are done together,
   !> one BLAS product of the gathered blocks with the pairs' weights (the kernel is read once
-  !> per offset instead of once per pair).
+  !> per offset instead of once per pair). Every block obeys A(d)_ba = p_a p_b A(d)_ab
+  !> (A(-d) = A(d)^T and the inversion parities p, multipole_basis.f90), and so does any sum of
+  !> blocks: the kernel and the approximations are kept and formed on the upper triangle only.
   subroutine assemble_correction(comm, basis, op, centres, first, weights, err, companion_unknowns)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
@@ -346,32 +348,35 @@ contains
     real(dp), intent(in) :: weights(:, :, :)
     type(error_t), intent(inout) :: err
     integer, intent(in), optional :: companion_unknowns(:)
+    integer, parameter :: batch = 256   ! pairs per BLAS product: its scratch stays in cache
     type(axial_table_t) :: axial
-    real(dp), allocatable :: kernel(:, :, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :, :), exact(:, :), &
-                             exact_batch(:, :, :)
-    real(dp) :: correlation(-op%stencil + 1:op%stencil - 1, 3)
-    integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:)
+    real(dp), allocatable :: kernel(:, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :), block(:, :), &
+                             lower_sign(:)
+    integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), upper_row(:), upper_column(:)
     integer(i8), allocatable :: order(:), offset_start(:)
     type(spatial_index_t) :: cells
     integer(i8), allocatable :: found(:), kept(:), unused(:)
-    integer(i8) :: n_found
-    integer :: reach, nb, s, n_near, k, axis, m, dx, dy, dz, d(3), offsets, width, n_pairs, p, q, e, stride, chunk, &
-               first_pair, last_pair
+    integer(i8) :: n_found, q
+    integer :: reach, nb, s, n_near, k, e, u, dx, dy, dz, d(3), offsets, width, n_pairs, p, stride, in_batch
     integer(i8) :: i
     nb = op%block_size
     s = op%stencil
+    call upper_triangle(basis, upper_row, upper_column, lower_sign)
     call make_axial_table(basis, axial, comm)
-    ! K(d) for every displacement a near pair's stencils can meet
+    ! K(d) for every displacement a near pair's stencils can meet, upper triangles
     reach = ceiling(op%near_radius) + s
-    allocate (kernel(nb, nb, -reach:reach, -reach:reach, -reach:reach))
+    allocate (kernel(size(upper_row), -reach:reach, -reach:reach, -reach:reach), block(nb, nb))
     do dz = -reach, reach
       do dy = -reach, reach
         do dx = -reach, reach
           if (dx == 0 .and. dy == 0 .and. dz == 0) then
-            kernel(:, :, 0, 0, 0) = op%self_block
+            block = op%self_block
           else
-            call rotated_block(axial, real([dx, dy, dz], dp), kernel(:, :, dx, dy, dz))
+            call rotated_block(axial, real([dx, dy, dz], dp), block)
           end if
+          do u = 1, size(upper_row)
+            kernel(u, dx, dy, dz) = block(upper_row(u), upper_column(u))
+          end do
         end do
       end do
     end do
@@ -400,89 +405,56 @@ contains
       call make_near_pair_matrix(comm, size(companion_unknowns), op%n_beads, op%first_bead, op%n_local, pair_row, &
                                  pair_column, op%companion_correction)
 
-    ! Rows in chunks of at most ~64 MB of approximations: in a chunk, the pairs sorted by stencil
-    ! offset (counting sort) share the gathered kernel blocks.
+    ! The pairs by stencil offset (counting sort), each offset's kernel blocks gathered once.
     width = 2 * (reach - s) + 1
     offsets = width**3
     stride = (2 * s - 1)**3
-    chunk = max(1, int(64.0e6_dp / (8.0_dp * nb * nb)))
     allocate (pair_offset(n_pairs), order(n_pairs), offset_start(0:offsets + 1))
     do p = 1, n_pairs
       d = first(:, pair_row(p)) - first(:, pair_column(p)) + (reach - s)
       pair_offset(p) = 1 + d(1) + width * (d(2) + width * d(3))
     end do
-    allocate (gathered(nb * nb, stride), pair_weights(stride, min(chunk, max(n_pairs, 1))), &
-              approximate(nb, nb, min(chunk, max(n_pairs, 1))), exact_batch(nb, nb, min(chunk, max(n_pairs, 1))), &
-              exact(nb, nb))
-    first_pair = 1
-    do while (first_pair <= n_pairs)
-      ! whole rows only: the chunk ends where a row ends
-      last_pair = min(n_pairs, first_pair + chunk - 1)
-      do while (last_pair < n_pairs .and. last_pair > first_pair)
-        if (pair_row(last_pair + 1) /= pair_row(last_pair)) exit
-        last_pair = last_pair - 1
-      end do
-      if (last_pair == first_pair .and. first_pair < n_pairs) then   ! a row longer than a chunk: take it whole
-        do while (last_pair < n_pairs)
-          if (pair_row(last_pair + 1) /= pair_row(first_pair)) exit
-          last_pair = last_pair + 1
-        end do
-      end if
-      if (last_pair - first_pair + 1 > size(approximate, 3)) then
-        deallocate (approximate, pair_weights, exact_batch)
-        allocate (approximate(nb, nb, last_pair - first_pair + 1), pair_weights(stride, last_pair - first_pair + 1), &
-                  exact_batch(nb, nb, last_pair - first_pair + 1))
-      end if
-      ! the chunk's pairs by offset: pair first_pair - 1 + order(k) is the chunk's k-th
-      call counting_sort(pair_offset(first_pair:last_pair), offsets, order(1:last_pair - first_pair + 1), offset_start)
-      do e = 1, offsets
-        q = int(offset_start(e))
-        n_near = int(offset_start(e + 1)) - q
-        if (n_near == 0) cycle
-        ! the offset's kernel blocks, in the order of the weights (x fastest)
-        p = first_pair - 1 + int(order(q))
-        d = first(:, pair_row(p)) - first(:, pair_column(p))
-        k = 0
-        do dz = 1 - s, s - 1
-          do dy = 1 - s, s - 1
-            do dx = 1 - s, s - 1
-              k = k + 1
-              gathered(:, k) = reshape(kernel(:, :, d(1) + dx, d(2) + dy, d(3) + dz), [nb * nb])
-            end do
+    call counting_sort(pair_offset, offsets, order, offset_start)
+    allocate (gathered(size(upper_row), stride), pair_weights(stride, batch), approximate(size(upper_row), batch))
+    do e = 1, offsets
+      if (offset_start(e + 1) == offset_start(e)) cycle
+      ! the offset's kernel blocks, in the order of the weights (x fastest)
+      p = int(order(offset_start(e)))
+      d = first(:, pair_row(p)) - first(:, pair_column(p))
+      k = 0
+      do dz = 1 - s, s - 1
+        do dy = 1 - s, s - 1
+          do dx = 1 - s, s - 1
+            k = k + 1
+            gathered(:, k) = kernel(:, d(1) + dx, d(2) + dy, d(3) + dz)
           end do
         end do
-        do k = 1, n_near
-          p = first_pair - 1 + int(order(q + k - 1))
-          do axis = 1, 3
-            correlation(:, axis) = 0.0_dp
-            do m = 1, s
-              correlation(m - s:m - 1, axis) = correlation(m - s:m - 1, axis) + &
-                                               weights(m, axis, pair_row(p)) * weights(s:1:-1, axis, pair_column(p))
-            end do
+      end do
+      do q = offset_start(e), offset_start(e + 1) - 1, batch
+        in_batch = int(min(int(batch, i8), offset_start(e + 1) - q))
+        do k = 1, in_batch
+          call stencil_correlation(int(order(q + k - 1)), pair_weights(:, k))
+        end do
+        call dgemm('N', 'N', size(upper_row), in_batch, stride, 1.0_dp, gathered, size(upper_row), pair_weights, stride, &
+                   0.0_dp, approximate, size(upper_row))
+        ! C_ij = exact - approximate, the approximation's lower triangle by the parities
+        do k = 1, in_batch
+          p = int(order(q + k - 1))
+          if (pair_row(p) == pair_column(p)) then
+            block = op%self_block
+          else
+            call rotated_block(axial, centres(:, pair_row(p)) - centres(:, pair_column(p)), block)
+          end if
+          do u = 1, size(upper_row)
+            block(upper_row(u), upper_column(u)) = block(upper_row(u), upper_column(u)) - approximate(u, k)
+            if (upper_row(u) /= upper_column(u)) block(upper_column(u), upper_row(u)) = &
+              block(upper_column(u), upper_row(u)) - lower_sign(u) * approximate(u, k)
           end do
-          pair_weights(:, k) = reshape(spread(spread(correlation(:, 1), 2, 2 * s - 1), 3, 2 * s - 1) * &
-                                       spread(spread(correlation(:, 2), 1, 2 * s - 1), 3, 2 * s - 1) * &
-                                       spread(spread(correlation(:, 3), 1, 2 * s - 1), 2, 2 * s - 1), [stride])
-        end do
-        ! approximations of these pairs, stored at their place in the chunk: order(q:)
-        call dgemm('N', 'N', nb * nb, n_near, stride, 1.0_dp, gathered, nb * nb, pair_weights, stride, 0.0_dp, &
-                   exact_batch, nb * nb)
-        do k = 1, n_near
-          approximate(:, :, order(q + k - 1)) = exact_batch(:, :, k)
+          op%correction%blocks(:, :, p) = block
+          if (op%has_companion_correction) &
+            op%companion_correction%blocks(:, :, p) = block(companion_unknowns, companion_unknowns)
         end do
       end do
-      ! C_ij = exact - approximate
-      do k = first_pair, last_pair
-        if (pair_row(k) == pair_column(k)) then
-          exact = op%self_block
-        else
-          call rotated_block(axial, centres(:, pair_row(k)) - centres(:, pair_column(k)), exact)
-        end if
-        op%correction%blocks(:, :, k) = exact - approximate(:, :, k - first_pair + 1)
-        if (op%has_companion_correction) &
-          op%companion_correction%blocks(:, :, k) = op%correction%blocks(companion_unknowns, companion_unknowns, k)
-      end do
-      first_pair = last_pair + 1
     end do
 
   contains
@@ -503,7 +475,53 @@ contains
       n_near = size(kept)
       near(1:n_near) = int(kept)
     end subroutine near_beads
+
+    !> w(delta) of pair p, delta in the (2s - 1)^3 box x fastest: the product over the axes of
+    !> the correlation sum_{m - m' = delta} l_m(R_i) l_m'(R_j) of the two beads' weights.
+    subroutine stencil_correlation(p, w)
+      integer, intent(in) :: p
+      real(dp), intent(out) :: w(:)
+      real(dp) :: correlation(1 - s:s - 1, 3)
+      integer :: axis, m, n
+      do axis = 1, 3
+        correlation(:, axis) = 0.0_dp
+        do m = 1, s
+          correlation(m - s:m - 1, axis) = correlation(m - s:m - 1, axis) + &
+                                           weights(m, axis, pair_row(p)) * weights(s:1:-1, axis, pair_column(p))
+        end do
+      end do
+      n = 0
+      do dz = 1 - s, s - 1
+        do dy = 1 - s, s - 1
+          do dx = 1 - s, s - 1
+            n = n + 1
+            w(n) = correlation(dx, 1) * correlation(dy, 2) * correlation(dz, 3)
+          end do
+        end do
+      end do
+    end subroutine stencil_correlation
   end subroutine assemble_correction
+
+  !> The upper triangle (a <= b) of a block of this basis, column by column, and the sign
+  !> p_a p_b that gives the lower triangle: A(d)_ba = p_a p_b A(d)_ab.
+  subroutine upper_triangle(basis, upper_row, upper_column, lower_sign)
+    type(multipole_basis_t), intent(in) :: basis
+    integer, allocatable, intent(out) :: upper_row(:), upper_column(:)
+    real(dp), allocatable, intent(out) :: lower_sign(:)
+    integer :: a, b, u
+    allocate (upper_row(basis%size * (basis%size + 1) / 2), upper_column(basis%size * (basis%size + 1) / 2), &
+              lower_sign(basis%size * (basis%size + 1) / 2))
+    u = 0
+    do b = 1, basis%size
+      do a = 1, b
+        u = u + 1
+        upper_row(u) = a
+        upper_column(u) = b
+        lower_sign(u) = real(inversion_parity(basis%degree(a), basis%family(a)) * &
+                             inversion_parity(basis%degree(b), basis%family(b)), dp)
+      end do
+    end do
+  end subroutine upper_triangle
 
   !> grid_centres: the centres in the frame of the grid, the principal axes of the bead set (about
   !> its centroid) when their padded FFT box is smaller by 10 % or more, else the centres as given.
