@@ -141,7 +141,8 @@ contains
   !> multipole_operator_t%cost: the FFT operator's on the grid (size%spans: the grid's) and the
   !> near-pair corrections (the companion's too), at most one bead per d^3 within the near radius
   !> (the lattice's density, above a jittered cluster's 0.75); per pair its share of a BLAS
-  !> product over (2 s - 1)^3 = 343 kernel blocks and its turned block; per product one block read.
+  !> product over (2 s - 1)^3 = 343 kernel blocks' upper triangles and its turned block; per
+  !> product one block read.
   pure subroutine pfft_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
@@ -150,7 +151,7 @@ contains
     near_pairs = size%local_beads * min(real(size%solve_beads, dp), 4.0_dp / 3.0_dp * acos(-1.0_dp) * size%near_radius**3)
     ! half of them stored and computed (each pair once, C symmetric), applied both ways per product
     cost%blocks = near_pairs / 2 * 8 * (size%nb**2 + size%nb_low**2)
-    cost%seconds_setup = cost%seconds_setup + near_pairs / 2 * (0.1_dp * direct_seconds * size%nb**2 * 343 + &
+    cost%seconds_setup = cost%seconds_setup + near_pairs / 2 * (0.1_dp * direct_seconds * size%nb * (size%nb + 1) / 2 * 343 + &
                                                                 quadrature_seconds(size) / 100)
     cost%seconds_product = cost%seconds_product + direct_seconds * size%nb**2 * near_pairs
     cost%seconds_low_product = cost%seconds_low_product + direct_seconds * size%nb_low**2 * near_pairs
