@@ -4,7 +4,7 @@ module beadmob_lapack
   use beadmob_kinds, only: dp
   implicit none
   private
-  public :: dgemm, dpotrf, dpotri, dpotrs, dsyev, dgesv
+  public :: dgemm, dgemv, dpotrf, dpotri, dpotrs, dsyev, dgesv
 
   interface
     pure subroutine dgemm(transa, transb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc)
@@ -14,6 +14,13 @@ module beadmob_lapack
       real(dp), intent(in) :: alpha, beta, a(lda, *), b(ldb, *)
       real(dp), intent(inout) :: c(ldc, *)
     end subroutine dgemm
+    pure subroutine dgemv(trans, m, n, alpha, a, lda, x, incx, beta, y, incy)
+      import :: dp
+      character, intent(in) :: trans
+      integer, intent(in) :: m, n, lda, incx, incy
+      real(dp), intent(in) :: alpha, beta, a(lda, *), x(*)
+      real(dp), intent(inout) :: y(*)
+    end subroutine dgemv
     pure subroutine dpotrf(uplo, n, a, lda, info)
       import :: dp
       character, intent(in) :: uplo

@@ -14,6 +14,7 @@ module beadmob_axial_table
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_pair_blocks, only: pair_block
   use beadmob_harmonic_rotation, only: rotation_rule_t, make_rotation_rule, direction_rotations
+  use beadmob_lapack, only: dgemm, dgemv
   implicit none
   private
   public :: axial_table_t, make_axial_table, axial_block, rotated_block, axial_nodes
@@ -119,10 +120,9 @@ contains
     end if
     weights = table%barycentric_weights / weights
     weights = weights / sum(weights)
-    block = 0.0_dp
-    do k = 1, size(weights)
-      block = block + weights(k) * table%blocks(:, :, k)
-    end do
+    ! block = sum_k weights(k) blocks(:, :, k), one BLAS product (vectorised at run time)
+    call dgemv('N', table%block_size**2, size(weights), 1.0_dp, table%blocks, table%block_size**2, weights, 1, 0.0_dp, &
+               block, 1)
   end subroutine axial_block
 
   !> The sorted distinct values of `values` (equal to 1e-12 relative: one distance computed from
@@ -156,40 +156,29 @@ contains
   end function distinct_values
 
   !> block = A(displacement), displacement = R_i - R_j (|displacement| >= 1 d): the axial block
-  !> turned by D_Q, Q e_z = displacement / |displacement|, one (n, sigma) group at a time.
+  !> turned, D_Q A_z D_Q^T with Q e_z = displacement / |displacement| (D_Q: O^n(Q) on each
+  !> (n, sigma) group, harmonic_rotation.f90).
   pure subroutine rotated_block(table, displacement, block)
     type(axial_table_t), intent(in) :: table
     real(dp), intent(in) :: displacement(3)
     real(dp), intent(out) :: block(:, :)
-    real(dp) :: axial(table%block_size, table%block_size), half(table%block_size, table%block_size)
+    real(dp) :: axial(table%block_size, table%block_size), half(table%block_size, table%block_size), &
+                turn(table%block_size, table%block_size)
     real(dp) :: rotations(2 * table%order + 1, 2 * table%order + 1, table%order)
-    integer :: g, n, f, l, c, k
+    integer :: g, n, f, l, nb
+    nb = table%block_size
     call axial_block(table, norm2(displacement), axial)
     call direction_rotations(table%rotation, displacement, rotations)
-    ! half = A_z D^T, then block = D half (D block-diagonal with blocks O^n), group by group in
-    ! explicit loops over whole columns (the intrinsic matmul of these small sections, with its
-    ! temporaries, took twice as long as the rest of the block).
+    ! D whole, zero between groups: two dense BLAS products (vectorised at run time) were faster
+    ! than the group-by-group loops, which use a fifth of the flops.
+    turn = 0.0_dp
     do g = 1, size(table%group_first)
       n = table%group_degree(g)
       f = table%group_first(g)
       l = table%group_last(g)
-      do c = f, l
-        half(:, c) = 0.0_dp
-        do k = f, l
-          half(:, c) = half(:, c) + axial(:, k) * rotations(c - f + 1, k - f + 1, n)
-        end do
-      end do
+      turn(f:l, f:l) = rotations(1:2 * n + 1, 1:2 * n + 1, n)
     end do
-    do c = 1, table%block_size
-      do g = 1, size(table%group_first)
-        n = table%group_degree(g)
-        f = table%group_first(g)
-        l = table%group_last(g)
-        block(f:l, c) = 0.0_dp
-        do k = f, l
-          block(f:l, c) = block(f:l, c) + rotations(1:2 * n + 1, k - f + 1, n) * half(k, c)
-        end do
-      end do
-    end do
+    call dgemm('N', 'T', nb, nb, nb, 1.0_dp, axial, nb, turn, nb, 0.0_dp, half, nb)   ! A_z D^T
+    call dgemm('N', 'N', nb, nb, nb, 1.0_dp, turn, nb, half, nb, 0.0_dp, block, nb)
   end subroutine rotated_block
 end module beadmob_axial_table
