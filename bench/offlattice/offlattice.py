@@ -160,7 +160,20 @@ def beadmob_rows(key, row, repeats):
     direct = os.path.join(WORK, f"{key}_default_direct.h5")
     if os.path.exists(direct):
         row["pfft_vs_direct"] = difference(mobility_of(default_path)[0], mobility_of(direct)[0])
+    for name, value in row.items():   # plain Python values, for rows.json
+        if isinstance(value, bytes):
+            row[name] = value.decode()
+        elif isinstance(value, np.floating):
+            row[name] = float(value)
     return default_path
+
+
+def save_rows(done, saved):
+    """rows.json replaced whole (written beside it, then renamed): an interrupted or failed write
+    leaves the rows kept before."""
+    with open(saved + ".part", "w") as out:
+        json.dump(done, out, indent=1)
+    os.replace(saved + ".part", saved)
 
 
 def difference(a, b):
@@ -198,7 +211,7 @@ def main():
             if key in args.again and key in done:
                 # the beadmob runs again (a changed operator or a disturbed machine), the references kept
                 beadmob_rows(key, done[key], repeats)
-                json.dump(done, open(saved, "w"), indent=1)
+                save_rows(done, saved)
             if key in done:
                 rows.append(done[key])
                 if "pygrpy_seconds" in done[key]:
@@ -223,11 +236,9 @@ def main():
                 row["direct_seconds"], row["direct_peak"], _ = run_beadmob(
                     f"{key}_default_direct", beads, None, ("-operator", "direct"))
             beadmob_rows(key, row, repeats)
-            row = {k: (v.decode() if isinstance(v, bytes) else float(v) if isinstance(v, np.floating) else v)
-                   for k, v in row.items()}
             rows.append(row)
             done[key] = row
-            json.dump(done, open(saved, "w"), indent=1)
+            save_rows(done, saved)
             print(row, flush=True)
     write_table(rows, args.out, time.perf_counter() - started)
 
