@@ -483,7 +483,7 @@ contains
       integer, intent(in) :: p
       real(dp), intent(out) :: w(:)
       real(dp) :: correlation(1 - s:s - 1, 3)
-      integer :: axis, m, n
+      integer :: axis, m, n, ex, ey, ez
       do axis = 1, 3
         correlation(:, axis) = 0.0_dp
         do m = 1, s
@@ -492,11 +492,11 @@ contains
         end do
       end do
       n = 0
-      do dz = 1 - s, s - 1
-        do dy = 1 - s, s - 1
-          do dx = 1 - s, s - 1
+      do ez = 1 - s, s - 1
+        do ey = 1 - s, s - 1
+          do ex = 1 - s, s - 1
             n = n + 1
-            w(n) = correlation(dx, 1) * correlation(dy, 2) * correlation(dz, 3)
+            w(n) = correlation(ex, 1) * correlation(ey, 2) * correlation(ez, 3)
           end do
         end do
       end do
