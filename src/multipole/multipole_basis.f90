@@ -36,9 +36,11 @@ contains
     basis_size = 2 * order * (order + 2) + potential_order * (potential_order + 2)
   end function basis_size
 
-  !> Inversion parity of a density of degree n, family sigma: phi(-y) = p phi(y) with
-  !> p = (-1)^(n-1) for sigma = 0, 2 and (-1)^n for sigma = 1 (grad R_n, y x grad R_n, grad I_n).
-  !> Its single-layer field has the same parity, so a pair block obeys A(-d)_ab = p_a p_b A(d)_ab.
+  !> Inversion parity of a density of degree n, family sigma, up to one sign common to all: the
+  !> densities obey phi(-y) = q phi(y) with q = (-1)^(n-1) for sigma = 0, 2 and (-1)^n for
+  !> sigma = 1 (grad R_n, y x grad R_n, grad I_n), and this returns p = -q (the force is "odd"
+  !> in the FFT operator's slot order). Its single-layer field has the parity of the density, so a
+  !> pair block obeys A(-d)_ab = q_a q_b A(d)_ab = p_a p_b A(d)_ab: only such products are used.
   pure integer function inversion_parity(n, sigma)
     integer, intent(in) :: n, sigma
     inversion_parity = merge(-1, 1, mod(n + merge(0, 1, sigma == 1), 2) == 1)
