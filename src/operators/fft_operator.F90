@@ -1445,12 +1445,8 @@ contains
       return
     end if
     ! The products fold and unfold the beads' sites only (mirror_classes.F90).
-    if (op%dense_pass_limit >= 0) then
-      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, op%dense_pass_limit, &
-                                 sites=op%table%lattice(op%axes, :))
-    else
-      call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, sites=op%table%lattice(op%axes, :))
-    end if
+    call size_mirror_transform(comm, nint(op%field_sign), op%box, data, op%reduced, err, op%dense_pass_limit, &
+                               sites=op%table%lattice(op%axes, :))
     allocate (op%buffers(1), op%buffer_slabs(0))
     made = .not. err%failed
     if (made) call make_mirror_buffer(op%reduced, op%buffers(1), made)

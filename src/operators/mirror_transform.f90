@@ -203,8 +203,8 @@ contains
   !> (fast and middle even, >= 2 data - 1) with `data` bead sites per axis. sites(:, bead): the
   !> lattice site (fast, middle, slow; from 0) of every bead, on every rank, when the transform
   !> is only ever applied to fields on them (mark_bead_sites; without it, the whole planes).
-  !> Which axes pass by matrix products: dense_axes, or with dense_limit those of at most that
-  !> many slots (0: FFTW's r2r transforms only).
+  !> Which axes pass by matrix products: dense_axes, or with dense_limit >= 0 those of at most
+  !> that many slots (0: FFTW's r2r transforms only; negative: dense_axes too).
   subroutine size_mirror_transform(comm, sign, box, data, t, err, dense_limit, sites)
     integer, intent(in) :: comm, sign(:, :), box(3), data(3)
     type(mirror_transform_t), intent(inout) :: t
@@ -228,7 +228,9 @@ contains
     if (allocated(t%row_span)) deallocate (t%row_span, t%plane_span)
     if (present(sites)) call mark_bead_sites(t, sites)
     t%dense = dense_axes(t)
-    if (present(dense_limit)) t%dense = t%half <= dense_limit
+    if (present(dense_limit)) then
+      if (dense_limit >= 0) t%dense = t%half <= dense_limit
+    end if
     if (any(t%dense)) call make_pass_matrices(t)
     forward_alloc = fftw_mpi_local_size_many_transposed(2, [int(data(3), C_INTPTR_T), int(t%half(2), C_INTPTR_T)], &
                                                         int(t%row, C_INTPTR_T), FFTW_MPI_DEFAULT_BLOCK, &
