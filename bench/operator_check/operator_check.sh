@@ -46,12 +46,13 @@ load_after=$(cut -d ' ' -f 1-3 /proc/loadavg)
   echo 'max|y_fft - y_direct| / max|y_direct|. Times: wall seconds, the slowest rank; product = median of'
   echo "$((3 * repeats)) products per operator, alternating direct and FFT within one run; set-up = each operator"
   echo 'built from scratch (both compute their own block table; the FFT one adds FFTW_MEASURE planning'
-  echo 'and the kernel transform). "rule" = the work ratio N^2 nb / (5 M log2 M) of `choose_operator`'
-  echo '(src/solvers/friction_job.F90; M = padded box sites), which picks the FFT operator when it exceeds 1.'
+  echo 'and the kernel transform). "model" = the direct/FFT ratio of one product by the dry run'"'"'s cost model'
+  echo '(src/solvers/job_estimate.f90, whole-box products on all the beads, as here), the model whose job'
+  echo 'estimates `choose_operator` (src/solvers/job_plan.f90) compares; "auto picks" = its choice for the job.'
   echo "Single runs on a shared machine (load average $load_before before, $load_after after): read the"
   echo 'times as sizes; the direct/FFT ratios, measured side by side, are the robust part.'
   echo
-  echo '| shape | N | padded box | ranks | max rel. difference | direct product (s) | FFT product (s) | direct/FFT | rule | measured/rule | direct set-up (s) | FFT set-up (s) | auto picks |'
+  echo '| shape | N | padded box | ranks | max rel. difference | direct product (s) | FFT product (s) | direct/FFT | model | measured/model | direct set-up (s) | FFT set-up (s) | auto picks |'
   echo '|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|'
   for shape in $shapes; do
     for np in $ranks; do
@@ -66,7 +67,7 @@ load_after=$(cut -d ' ' -f 1-3 /proc/loadavg)
         ratio = v["direct_product"] / v["fft_product"]
         printf "| %s | %d | %s | %d | %.1e | %.3f | %.4f | %.1f | %.1f | %.2f | %.2f | %.2f | %s |\n",
           v["shape"], v["n"], v["box"], v["ranks"], v["max_difference"], v["direct_product"], v["fft_product"],
-          ratio, v["rule_ratio"], ratio / v["rule_ratio"], v["direct_setup"], v["fft_setup"], v["auto"]
+          ratio, v["model_ratio"], ratio / v["model_ratio"], v["direct_setup"], v["fft_setup"], v["auto"]
       }'
     done
   done
@@ -75,10 +76,10 @@ load_after=$(cut -d ' ' -f 1-3 /proc/loadavg)
   awk -v failed="${#failed[@]}" '
     {
       for (i = 2; i <= NF; i++) { split($i, kv, "="); v[kv[1]] = kv[2] }
-      d = v["max_difference"] + 0; r = v["direct_product"] / v["fft_product"]; q = r / v["rule_ratio"]
+      d = v["max_difference"] + 0; r = v["direct_product"] / v["fft_product"]; q = r / v["model_ratio"]
       if (n == 0 || d > dmax) { dmax = d; where = v["shape"] " on " v["ranks"] " rank(s)" }
       if (n == 0 || r < rmin) rmin = r; if (n == 0 || r > rmax) rmax = r
-      if (n == 0 || v["rule_ratio"] < gmin) gmin = v["rule_ratio"] + 0; if (n == 0 || v["rule_ratio"] > gmax) gmax = v["rule_ratio"] + 0
+      if (n == 0 || v["model_ratio"] < gmin) gmin = v["model_ratio"] + 0; if (n == 0 || v["model_ratio"] > gmax) gmax = v["model_ratio"] + 0
       if (n == 0 || q < qmin) qmin = q; if (n == 0 || q > qmax) qmax = q
       if (v["auto"] != "fft" || r <= 1) disagree++
       n++
@@ -87,18 +88,12 @@ load_after=$(cut -d ' ' -f 1-3 /proc/loadavg)
       if (n == 0) { print "No run finished."; exit }
       printf "Largest difference found: %.2e (%s), %s the 1e-12 bound", dmax, where, (dmax <= 1e-12 ? "below" : "ABOVE")
       printf " (%d run(s) finished, %d failed).\n\n", n, failed
-      printf "Timing against the rule: the direct product is %.0f to %.0f times slower than the FFT product, where", rmin, rmax
-      printf " `choose_operator` estimates %.0f to %.0f; measured/rule = %.1f to %.1f. ", gmin, gmax, qmin, qmax
+      printf "Timing against the cost model: the direct product is %.0f to %.0f times slower than the FFT product, where", rmin, rmax
+      printf " the model estimates %.0f to %.0f; measured/model = %.1f to %.1f. ", gmin, gmax, qmin, qmax
       if (disagree == 0)
-        printf "The rule picks the FFT operator for every shape and rank count, and the measurement agrees"
+        printf "`auto` picks the FFT operator for every shape and rank count, and the measurement agrees.\n"
       else
-        printf "In %d run(s) the rule and the measurement disagree on the faster operator", disagree
-      if (qmin > 1)
-        printf ". At these sizes the rule underestimates the FFT operator'"'"'s advantage by that factor (its crossover, ~150 beads, was fitted on small cones), which leaves its choice unchanged here.\n"
-      else if (qmax < 1)
-        printf ". At these sizes the rule overestimates the FFT operator'"'"'s advantage by that factor.\n"
-      else
-        printf ".\n"
+        printf "In %d run(s) the pick of `auto` and the measurement disagree on the faster operator.\n", disagree
     }' "$logs/summaries.txt"
 } > "$out"
 echo "operator-check: wrote bench/operator_check/operator_check.md (logs in $logs)"

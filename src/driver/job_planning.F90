@@ -164,7 +164,9 @@ contains
     real(dp), intent(in) :: seconds
     character(len=:), allocatable :: text
     character(len=32) :: buffer
-    if (seconds < 120.0_dp) then
+    if (seconds < 1.0_dp) then   ! small jobs: milliseconds, which decide between their operators
+      write (buffer, '(f0.3, a)') seconds, ' s'
+    else if (seconds < 120.0_dp) then
       write (buffer, '(f0.1, a)') seconds, ' s'
     else if (seconds < 7200.0_dp) then
       write (buffer, '(f0.1, a)') seconds / 60, ' min'

@@ -14,8 +14,8 @@ module beadmob_bead_operator
   use beadmob_block_table, only: block_table_t, make_block_table, table_block_index
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, &
-                                   lattice_blocks_seconds, direct_seconds, &
-                                   transform_bytes
+                                   lattice_blocks_seconds, direct_seconds, lattice_block_seconds, &
+                                   lattice_entry_seconds, transform_bytes
   use beadmob_axial_table, only: axial_nodes
   implicit none
   private
@@ -100,7 +100,7 @@ contains
   pure subroutine direct_cost(size, cost)
     type(job_size_t), intent(in) :: size
     type(operator_cost_t), intent(out) :: cost
-    real(dp) :: block_bytes
+    real(dp) :: block_bytes, pairs
     block_bytes = 8 * size%nb**2
     if (size%on_lattice) then
       cost%canonical_blocks = canonical_blocks_of(size%spans)
@@ -113,8 +113,14 @@ contains
                                                        real(size%solve_beads, dp) * size%local_beads / 100)
     end if
     cost%companion = cost%kernel * (size%nb_low / size%nb)**2
-    cost%seconds_product = direct_seconds * size%nb**2 * real(size%solve_beads, dp) * size%local_beads
-    cost%seconds_low_product = cost%seconds_product * (size%nb_low / size%nb)**2
+    pairs = real(size%solve_beads, dp) * size%local_beads
+    if (size%on_lattice) then
+      cost%seconds_product = (lattice_block_seconds + lattice_entry_seconds * size%nb**2) * pairs
+      cost%seconds_low_product = (lattice_block_seconds + lattice_entry_seconds * size%nb_low**2) * pairs
+    else
+      cost%seconds_product = direct_seconds * size%nb**2 * pairs
+      cost%seconds_low_product = direct_seconds * size%nb_low**2 * pairs
+    end if
   end subroutine direct_cost
 
   subroutine destroy_direct(this)

@@ -71,7 +71,8 @@ module beadmob_fft_operator
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_operator_cost, only: job_size_t, operator_cost_t, canonical_blocks_of, lattice_blocks_seconds, &
                                    fill_seconds, &
-                                   fft_seconds, multiply_seconds, transpose_fraction, transform_bytes
+                                   fft_seconds, multiply_seconds, transpose_fraction, transform_bytes, &
+                                   fft_field_seconds
   implicit none
   private
   public :: fft_operator_t, create_fft_operator, destroy_fft_operator, fft_size, create_fft_companion, fft_cost
@@ -274,9 +275,11 @@ contains
                                  + 2 * cost%fft_box(3) * half)   ! and one middle line's scratch and spectrum
     if (size%n_ranks > 1) cost%transposes = transpose_fraction * cost%fft_buffer
     call batch_and_setup_cost(size, freq_planes, cost)
-    cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks
+    cost%seconds_product = (2 * fft_seconds * nb * pruned + multiply_seconds * packed * sites / 2) / size%n_ranks &
+                           + fft_field_seconds * nb
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * pruned &
-                                + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks
+                                + multiply_seconds * size%nb_low * (size%nb_low + 1) / 2 * sites / 2) / size%n_ranks &
+                               + fft_field_seconds * size%nb_low
   end subroutine fft_cost
 
   !> fft_cost of an operator whose products run by mirror class (choose_axes, mirror_transform.f90):
@@ -314,9 +317,10 @@ contains
                                 + real(data(3), dp) * half(2) * half(1) * log(real(cost%fft_box(2), dp))) &
                   + real(half(2), dp) * half(1) * cost%fft_box(3) * log(real(cost%fft_box(3), dp))) / log(2.0_dp)
     cost%seconds_product = (2 * fft_seconds * nb * transforms + multiply_seconds * packed * &
-                            half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks
+                            half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks + fft_field_seconds * nb
     cost%seconds_low_product = (2 * fft_seconds * size%nb_low * transforms + multiply_seconds * size%nb_low * &
-                                (size%nb_low + 1) / 2 * half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks
+                                (size%nb_low + 1) / 2 * half(2) * half(1) * (cost%fft_box(3) / 2 + 1)) / size%n_ranks &
+                               + fft_field_seconds * size%nb_low
   end subroutine mirrored_fft_cost
 
   !> The terms fft_cost and mirrored_fft_cost share, from cost%fft_box, cost%kernel, one buffer

@@ -9,14 +9,22 @@ module beadmob_operator_cost
   implicit none
   private
   public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, transform_bytes, lattice_blocks_seconds
-  public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction
+  public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction, fft_field_seconds, &
+            lattice_block_seconds, lattice_entry_seconds
 
   ! Rates (seconds) measured on the development machine (one core per rank).
   real(dp), parameter :: quadrature_seconds_l2 = 6.5e-4_dp  ! one canonical block at L = 2
   real(dp), parameter :: fill_seconds = 5.0e-8_dp      ! one packed kernel entry of one site (113081-bead sphere)
   real(dp), parameter :: fft_seconds = 0.75e-9_dp      ! per field, per site and log2(sites), one transform
   real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
-  real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product
+  real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product (off the lattice)
+  !> The lattice direct product, whose blocks come from a table in cache: per block a fixed part
+  !> and a part per entry (fitted to the friction jobs of lattice bodies of 200-925 beads at
+  !> L = 1, 2, 3, bench/operator_check/lattice_crossover.md: 1.2x and 1.7x below 1e-9 per entry)
+  real(dp), parameter :: lattice_block_seconds = 8.6e-9_dp, lattice_entry_seconds = 0.6e-9_dp
+  !> The FFT products' fixed cost per field and vector (the transforms' calls on small boxes and
+  !> the transposes' messages), which decides at a few dozen beads (the same bench: 20-50 beads)
+  real(dp), parameter :: fft_field_seconds = 7.0e-6_dp
   !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
   !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling/scaling.md).
   real(dp), parameter :: transpose_fraction = 0.5_dp

@@ -12,7 +12,6 @@ module beadmob_job_plan
   use beadmob_shell_model, only: shell_mask
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_multipole_basis, only: basis_size
-  use beadmob_fft_operator, only: fft_size
   use beadmob_dense_operator, only: dense_max_unknowns
   use beadmob_motion_symmetry, only: find_symmetry_group, solves_needed, n_symmetries
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
@@ -20,7 +19,7 @@ module beadmob_job_plan
   use beadmob_job_defaults, only: is_set
   implicit none
   private
-  public :: job_plan_t, make_job_plan, choose_operator
+  public :: job_plan_t, make_job_plan, choose_operator, operator_spans
 
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8
@@ -74,9 +73,8 @@ contains
     type(job_plan_t), intent(out) :: plan
     type(error_t), intent(inout) :: err
     logical, allocatable :: keep(:)
-    integer :: i, spans(3)
-    integer, allocatable :: lattice(:, :)
-    logical :: shell, mirrors(3)
+    integer :: i
+    logical :: shell
 
     if (settings%bead_forces .and. .not. all(settings%motions)) then
       call raise(err, 'bead_forces needs all six motions (motions = ''all'')')
@@ -114,37 +112,53 @@ contains
 
     call choose_solve_frame(ctx, settings, plan, err)
     if (err%failed) return
-    call choose_operator(settings%operator_name, plan%solve_centres, basis_size(settings%multipole_order, settings%potential_order), &
-                         plan%operator_name, err, settings, plan%n_ranks)
+    call choose_operator(settings, plan%solve_centres, plan%n_ranks, plan%n_solves, shell, plan%operator_name, err)
     if (err%failed) return
     if (plan%operator_name == 'dense') then
       plan%n_solves = count(settings%motions)
       plan%lab_solves = plan%n_solves
     end if
-
-    ! The estimate: lattice spans of the model, or the pfft grid's (the solve beads' extent in
-    ! the solve frame and a stencil's width, pfft_operator.F90).
-    spans = 0
-    do i = 1, 3
-      if (plan%on_lattice) then
-        spans(i) = nint(maxval(centres(i, :)) - minval(centres(i, :)))
-      else if (plan%operator_name == 'pfft') then
-        spans(i) = pfft_span(plan%solve_centres(i, :), settings%pfft_stencil)
-      end if
-    end do
-    ! The FFT operator's products by mirror class (fft_operator.F90, choose_axes).
-    mirrors = .false.
-    if (plan%on_lattice .and. settings%fft_mirror_classes) then
-      lattice = nint(plan%solve_centres - spread(minval(plan%solve_centres, dim=2), 2, size(plan%solve_centres, 2)))
-      mirrors = lattice_mirrors(lattice, maxval(lattice, dim=2))
-    end if
     call choose_replication(settings%replicate_products, plan, err)
     if (err%failed) return
-    plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), spans, plan%on_lattice, &
+    plan%estimate = estimate_job(plan%model_beads, size(plan%solve_beads, kind=i8), &
+                                 operator_spans(plan%solve_centres, plan%operator_name, settings), plan%on_lattice, &
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
-                                 settings%pfft_near_radius, mirrors, plan%replicated_products)
+                                 settings%pfft_near_radius, fft_mirrors(plan%solve_centres, settings), &
+                                 plan%replicated_products)
   end subroutine make_job_plan
+
+  !> The spans (sites per axis less one) an operator's cost follows: the lattice box of the solve
+  !> beads (the FFT box holds twice it), the pfft grid's off the lattice (the beads' extent and a
+  !> stencil's width, pfft_operator.F90), none for the direct operator off the lattice.
+  function operator_spans(centres, operator_name, settings) result(spans)
+    real(dp), intent(in) :: centres(:, :)
+    character(len=*), intent(in) :: operator_name
+    type(friction_settings_t), intent(in) :: settings
+    integer :: spans(3), a
+    spans = 0
+    do a = 1, 3
+      if (on_unit_lattice(centres)) then
+        spans(a) = nint(maxval(centres(a, :)) - minval(centres(a, :)))
+      else if (operator_name == 'pfft') then
+        spans(a) = pfft_span(centres(a, :), settings%pfft_stencil)
+      end if
+    end do
+  end function operator_spans
+
+  !> The lattice axes along which the solve beads are symmetric, which the FFT operator's products
+  !> by mirror class use (fft_operator.F90, choose_axes); none off the lattice or with
+  !> fft_mirror_classes off.
+  function fft_mirrors(centres, settings) result(mirrors)
+    real(dp), intent(in) :: centres(:, :)
+    type(friction_settings_t), intent(in) :: settings
+    logical :: mirrors(3)
+    integer, allocatable :: lattice(:, :)
+    mirrors = .false.
+    if (.not. settings%fft_mirror_classes .or. .not. on_unit_lattice(centres)) return
+    lattice = nint(centres - spread(minval(centres, dim=2), 2, size(centres, 2)))
+    mirrors = lattice_mirrors(lattice, maxval(lattice, dim=2))
+  end function fft_mirrors
 
   !> plan%replicated_products: asked for ('yes'), on several ranks, for any operator but the dense
   !> one (assembled and factorised as a whole already). Not by default: on this project's 2-core
@@ -215,67 +229,55 @@ contains
     call move_alloc(candidate, plan%solve_centres)
   end subroutine choose_solve_frame
 
-  !> The operator for a job: as asked, or for 'auto' the FFT operator when the beads are on the
-  !> lattice and its product is estimated cheaper: direct ~ N^2 nb against FFT ~ 5 M log2 M for a
-  !> padded box of M sites (rule fitted to side-by-side timings of both products on scaled paper
-  !> cones at L = 2, 2 ranks: the direct product wins below ~150 beads). Off the lattice, the one
-  !> of the direct operator (exact blocks, N^2 / P of them per rank) and the precorrected FFT
-  !> whose estimated wall time (job_estimate.f90, the dry run's cost model: set-up, solves and the
-  !> error bar's companion on n_ranks ranks) is the smaller (bench/offlattice/pfft_crossover.md checks the
-  !> choice against side-by-side runs). First of all, up to dense_max_beads beads (and
+  !> The operator for a job: as asked, or for 'auto' the one whose estimated wall time is the
+  !> smaller (job_estimate.f90, the dry run's cost model: set-up, the solves' products and the
+  !> error bar's companion on n_ranks ranks, for the n_solves solves the job's symmetries leave):
+  !> on the lattice the direct operator against the FFT operator (by mirror class where the beads
+  !> allow it; bench/operator_check/lattice_crossover.md checks the choice against side-by-side
+  !> runs at L = 1, 2, 3), off the lattice the direct operator against the precorrected FFT
+  !> (bench/offlattice/pfft_crossover.md). First of all, up to dense_max_beads beads (and
   !> dense_max_unknowns unknowns), the dense operator: a few beads at high L are where Krylov
   !> iterations pile up and an exact solve of a few thousand unknowns is cheap
   !> (bench/offlattice/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
-  !> symmetric beads keep the Krylov path, which wins there). `job` and `n_ranks` are needed for
-  !> the off-lattice choice.
-  subroutine choose_operator(requested, centres, block_size, chosen, err, job, n_ranks)
-    character(len=*), intent(in) :: requested
+  !> symmetric beads keep the Krylov path, which wins there).
+  subroutine choose_operator(settings, centres, n_ranks, n_solves, shell, chosen, err)
+    type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :)
-    integer, intent(in) :: block_size
+    integer, intent(in) :: n_ranks, n_solves
+    logical, intent(in) :: shell       ! the solve beads are a shell model's (its iteration counts)
     character(len=*), intent(out) :: chosen
     type(error_t), intent(inout) :: err
-    type(friction_settings_t), intent(in), optional :: job
-    integer, intent(in), optional :: n_ranks
-    real(dp) :: direct_work, fft_work, sites
-    integer :: axis
-    select case (trim(requested))
+    character(len=4) :: fast
+    select case (trim(settings%operator_name))
     case ('direct', 'fft', 'pfft', 'dense')
-      chosen = requested
+      chosen = settings%operator_name
     case ('auto')
-      chosen = 'direct'
-      if (size(centres, 2) <= dense_max_beads .and. size(centres, 2) * block_size <= dense_max_unknowns) then
+      fast = merge('fft ', 'pfft', on_unit_lattice(centres))
+      if (size(centres, 2) <= dense_max_beads .and. &
+          size(centres, 2) * basis_size(settings%multipole_order, settings%potential_order) <= dense_max_unknowns) then
         chosen = 'dense'
-      else if (on_unit_lattice(centres)) then
-        sites = 1.0_dp
-        do axis = 1, 3
-          sites = sites * fft_size(2 * nint(maxval(centres(axis, :)) - minval(centres(axis, :))) + 1)
-        end do
-        direct_work = real(size(centres, 2), dp)**2 * block_size
-        fft_work = 5.0_dp * sites * log(sites) / log(2.0_dp)
-        if (direct_work > fft_work) chosen = 'fft'
-      else if (present(job) .and. present(n_ranks)) then
-        if (estimated_seconds('pfft') < estimated_seconds('direct')) chosen = 'pfft'
+      else if (estimated_seconds(trim(fast)) < estimated_seconds('direct')) then
+        chosen = fast
       else
-        call raise(err, 'internal: choose_operator needs the job settings and ranks for an off-lattice model')
+        chosen = 'direct'
       end if
     case default
       chosen = ''
-      call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // trim(requested) // "'")
+      call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // &
+                 trim(settings%operator_name) // "'")
     end select
 
   contains
 
-    !> The dry run's wall time of the job with this off-lattice operator (all six motions).
+    !> The dry run's wall time of the job with this operator.
     real(dp) function estimated_seconds(operator_name)
       character(len=*), intent(in) :: operator_name
       type(job_estimate_t) :: e
-      integer :: spans(3), a
-      do a = 1, 3   ! the pfft grid's spans; the direct operator ignores them
-        spans(a) = pfft_span(centres(a, :), job%pfft_stencil)
-      end do
-      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), spans, .false., job%multipole_order, &
-                       job%potential_order, operator_name, n_ranks, 6, .false., 1.0_dp, &
-                       job%error_estimate .and. job%multipole_order >= 2, job%pfft_near_radius)
+      e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), &
+                       operator_spans(centres, operator_name, settings), on_unit_lattice(centres), &
+                       settings%multipole_order, settings%potential_order, operator_name, n_ranks, n_solves, shell, &
+                       1.0_dp, settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions), &
+                       settings%pfft_near_radius, fft_mirrors(centres, settings))
       estimated_seconds = e%seconds_total
     end function estimated_seconds
   end subroutine choose_operator
