@@ -132,7 +132,8 @@ def main():
              "`total`), whole: `mpiexec` to exit; medians of the repetitions, each running both operators in turn. "
              "Estimate: the dry run's expected wall time of the job with that operator (`estimated_seconds`, "
              "src/solvers/job_estimate.f90), which `-operator auto` compares (src/solvers/job_plan.f90, "
-             "choose_operator). Last column(s): the job time of the operator `auto` picks over the faster one's.",
+             "choose_operator). Last column(s): the job time of the operator `auto` picks over the faster one's; "
+             "with --before, the other build's pick (its own dry run) priced by this build's runs of that operator.",
              "", header, rule] + rows
     lines += ["", verdict(costly, "This build")] + (["", verdict(costly_before, "Before")] if args.before else [])
     lines += ["", f"Whole script: {(time.perf_counter() - started) / 60:.1f} min.", ""]
