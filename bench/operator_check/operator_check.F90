@@ -80,12 +80,13 @@ program operator_check
   if (err%failed) call finish()
   call broadcast_text(ctx, text)
   call parse_input_text(text, trim(input_path), config, err)
-  ! -fft_planner exactly as beadmob reads it (FFTW_MEASURE by default).
+  ! -fft_planner exactly as beadmob reads it ('auto' by default: without a table cache, as here,
+  ! FFTW's estimated plans, as a job makes them; friction_job.F90).
   if (.not. err%failed) call read_command_line(config, err)
   if (err%failed) call finish()
   associate (planner => config%hydrodynamics%fft_planner)
-    if (planner /= 'measure' .and. planner /= 'estimate') &
-      call raise(err, "-fft_planner must be 'measure' or 'estimate', got '" // trim(planner) // "'")
+    if (planner /= 'measure' .and. planner /= 'estimate' .and. planner /= 'auto') &
+      call raise(err, "-fft_planner must be 'measure', 'estimate' or 'auto', got '" // trim(planner) // "'")
   end associate
   if (err%failed) call finish()
   call build_bead_model(ctx, config%shape, model, err)

@@ -45,8 +45,8 @@ load_after=$(cut -d ' ' -f 1-3 /proc/loadavg)
   echo 'global index, so identical on 1 and 2 ranks). Difference: the largest over the 3 vectors of'
   echo 'max|y_fft - y_direct| / max|y_direct|. Times: wall seconds, the slowest rank; product = median of'
   echo "$((3 * repeats)) products per operator, alternating direct and FFT within one run; set-up = each operator"
-  echo 'built from scratch (both compute their own block table; the FFT one adds FFTW_MEASURE planning'
-  echo 'and the kernel transform). "model" = the direct/FFT ratio of one product by the dry run'"'"'s cost model'
+  echo 'built from scratch (both compute their own block table; the FFT one adds FFTW'"'"'s planning, estimated'
+  echo 'plans as a job without a table cache makes them, and the kernel transform). "model" = the direct/FFT ratio of one product by the dry run'"'"'s cost model'
   echo '(src/solvers/job_estimate.f90, whole-box products on all the beads, as here), the model whose job'
   echo 'estimates `choose_operator` (src/solvers/job_plan.f90) compares; "auto picks" = its choice for the job.'
   echo "Single runs on a shared machine (load average $load_before before, $load_after after): read the"
