@@ -23,7 +23,8 @@ module beadmob_block_table
   implicit none
   private
   public :: block_table_t, make_block_table, table_block_index, block_cache_key
-  public :: block_formula_version, lattice_block, lattice_block_entries, canonical_block_entries, canonical_count
+  public :: block_formula_version, lattice_block, lattice_block_entries, canonical_count
+  public :: entry_terms_t, make_entry_terms, entries_by_terms
 
   !> Largest block store allowed per rank (bytes) before refusing an off-lattice model.
   real(dp), parameter :: max_store_bytes = 8.0e9_dp
@@ -61,6 +62,15 @@ module beadmob_block_table
     !> through an operator's create routine set it in the operator's table before that call.
     character(len=:), allocatable :: cache_file
   end type block_table_t
+
+  !> Chosen entries (rows(e), columns(e)) of the turned blocks D_s A D_s^T, for every lattice
+  !> symmetry s, as short sums over the entries of A: entry e under s is
+  !> sum_j value(j, e, s) A(index(j, e, s)) (A flattened, j <= count(e, s)). D_s has a few
+  !> nonzeros per row, so each entry needs a few products (make_entry_terms).
+  type :: entry_terms_t
+    integer, allocatable :: count(:, :), index(:, :, :)
+    real(dp), allocatable :: value(:, :, :)
+  end type entry_terms_t
 
 contains
 
@@ -367,41 +377,64 @@ contains
                                                      transpose(table%transforms(:, :, s))))
   end function lattice_block
 
-  !> values(e) = A(d)(rows(e), columns(e)) from the compact table (0 for d = 0):
-  !> (D A_c D^T)(r, t) = sum_a D(r, a) sum_b A_c(a, b) D(t, b) over the nonzeros of D's rows only.
+  !> values(e) = A(d)(rows(e), columns(e)) from the compact table (0 for d = 0).
   pure subroutine lattice_block_entries(table, d, rows, columns, values)
     type(block_table_t), intent(in) :: table
     integer, intent(in) :: d(3), rows(:), columns(:)
     real(dp), intent(out) :: values(:)
+    type(entry_terms_t) :: terms
     integer :: c(3), s
     values = 0.0_dp
     if (all(d == 0)) return
     call canonical_displacement(d, c, s)
-    call canonical_block_entries(table, table%canonical_id(c(1), c(2), c(3)), s, rows, columns, values)
+    call make_entry_terms(table, rows, columns, terms)
+    call entries_by_terms(terms, s, table%canonical_blocks(:, :, table%canonical_id(c(1), c(2), c(3))), values)
   end subroutine lattice_block_entries
 
-  !> values(e) = (D_s A_k D_s^T)(rows(e), columns(e)): lattice_block_entries of the displacement
-  !> that lattice symmetry s makes of canonical displacement k (canonical_displacement).
-  pure subroutine canonical_block_entries(table, k, s, rows, columns, values)
+  !> The terms of the entries (rows(e), columns(e)) under every lattice symmetry:
+  !> (D A D^T)(r, t) = sum_a sum_b D(r, a) D(t, b) A(a, b) over the nonzeros of D's rows only.
+  pure subroutine make_entry_terms(table, rows, columns, terms)
     type(block_table_t), intent(in) :: table
-    integer, intent(in) :: k, s, rows(:), columns(:)
-    real(dp), intent(out) :: values(:)
-    integer :: e, a, b, r, t
-    real(dp) :: inner
-    values = 0.0_dp
-    do e = 1, size(rows)
-      r = rows(e)
-      t = columns(e)
-      do a = 1, table%transform_count(r, s)
-        inner = 0.0_dp
-        do b = 1, table%transform_count(t, s)
-          inner = inner + table%canonical_blocks(table%transform_column(a, r, s), table%transform_column(b, t, s), k) &
-                  * table%transform_value(b, t, s)
+    integer, intent(in) :: rows(:), columns(:)
+    type(entry_terms_t), intent(out) :: terms
+    integer :: nb, widest, e, s, a, b, r, t, j
+    nb = table%block_size
+    widest = size(table%transform_column, 1)**2
+    allocate (terms%count(size(rows), n_symmetries), terms%index(widest, size(rows), n_symmetries), &
+              terms%value(widest, size(rows), n_symmetries))
+    terms%index = 1
+    terms%value = 0.0_dp
+    do s = 1, n_symmetries
+      do e = 1, size(rows)
+        r = rows(e)
+        t = columns(e)
+        j = 0
+        do a = 1, table%transform_count(r, s)
+          do b = 1, table%transform_count(t, s)
+            j = j + 1
+            terms%index(j, e, s) = table%transform_column(a, r, s) + nb * (table%transform_column(b, t, s) - 1)
+            terms%value(j, e, s) = table%transform_value(a, r, s) * table%transform_value(b, t, s)
+          end do
         end do
-        values(e) = values(e) + table%transform_value(a, r, s) * inner
+        terms%count(e, s) = j
       end do
     end do
-  end subroutine canonical_block_entries
+  end subroutine make_entry_terms
+
+  !> values(e) = entry e of D_s A D_s^T (make_entry_terms) for the block A.
+  pure subroutine entries_by_terms(terms, s, block, values)
+    type(entry_terms_t), intent(in) :: terms
+    integer, intent(in) :: s
+    real(dp), intent(in) :: block(*)   ! nb x nb, column-major
+    real(dp), intent(out) :: values(:)
+    integer :: e, j
+    do e = 1, size(values)
+      values(e) = 0.0_dp
+      do j = 1, terms%count(e, s)
+        values(e) = values(e) + terms%value(j, e, s) * block(terms%index(j, e, s))
+      end do
+    end do
+  end subroutine entries_by_terms
 
   subroutine fill_pair_store(comm, basis, centres, first, n_local, table, err)
     integer, intent(in) :: comm

@@ -18,7 +18,7 @@ module beadmob_kernel_spectrum
   use beadmob_strings, only: str
   use beadmob_fftw
   use beadmob_progress, only: progress_line, progress_seconds
-  use beadmob_block_table, only: block_table_t, canonical_block_entries
+  use beadmob_block_table, only: block_table_t, entry_terms_t, make_entry_terms, entries_by_terms
   use beadmob_lattice_symmetry, only: canonical_displacement
   use beadmob_counting_sort, only: counting_sort
   use mpi, only: MPI_Allgather, MPI_Allreduce, MPI_Alltoallv, MPI_Comm_rank, MPI_Comm_size, MPI_IN_PLACE, &
@@ -226,13 +226,14 @@ contains
     integer(i8), intent(in) :: by_block(:)
     real(dp), intent(out) :: values(:, :)
     integer(i8) :: q, p
+    type(entry_terms_t) :: terms
+    call make_entry_terms(table, octant%row(first:first + count - 1), octant%column(first:first + count - 1), terms)
     do q = 1, size(by_block, kind=i8)
       p = by_block(q)
       if (block_of(p) == 0) then
         values(1:count, p) = 0.0_dp
       else
-        call canonical_block_entries(table, block_of(p), symmetry_of(p), octant%row(first:first + count - 1), &
-                                     octant%column(first:first + count - 1), values(1:count, p))
+        call entries_by_terms(terms, symmetry_of(p), table%canonical_blocks(:, :, block_of(p)), values(1:count, p))
       end if
     end do
   end subroutine fill_octant
