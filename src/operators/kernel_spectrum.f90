@@ -241,12 +241,14 @@ contains
   !> The entries' octant values -> their spectrum on the octant of frequencies, axis by axis:
   !> each line extended to the n sites of its axis by its entry's parity (parity(b, axis)), a
   !> real FFT, and the real (even) or imaginary (odd) part of frequencies 0 .. n/2 kept in its place.
+  !> A chunk holds whole spatial lines, the `count` entries of each side by side, so that every
+  !> point's entries are read and written together (they are adjacent in values).
   subroutine transform_octant(octant, parity, values)
     type(kernel_octant_t), intent(in) :: octant
     integer, intent(in) :: parity(:, :)
     real(dp), intent(inout) :: values(:, 0:)
-    integer :: m(3), a, n, j, c, in_chunk, b, count, entry(chunk_lines)
-    integer(i8) :: stride, lines, line, first(chunk_lines)
+    integer :: m(3), a, n, j, b, count, per_chunk, in_chunk, c0, l
+    integer(i8) :: stride, lines, line, first(chunk_lines), point
     type(C_PTR) :: plan, line_memory, spectrum_memory
     real(C_DOUBLE), pointer :: extended(:, :)
     complex(C_DOUBLE_COMPLEX), pointer :: spectrum(:, :)
@@ -254,47 +256,51 @@ contains
 
     m = octant%box / 2 + 1
     count = size(parity, 1)
+    per_chunk = max(chunk_lines / count, 1)   ! spatial lines per FFTW call
     do a = 1, 3
       n = octant%box(a)
       stride = product(int(m(1:a - 1), i8))
       lines = product(int(m, i8)) / m(a)
-      line_memory = fftw_alloc_real(int(n, C_SIZE_T) * chunk_lines)
-      spectrum_memory = fftw_alloc_real(2_C_SIZE_T * (n / 2 + 1) * chunk_lines)
-      call c_f_pointer(line_memory, extended, [n, chunk_lines])
-      call c_f_pointer(spectrum_memory, spectrum, [n / 2 + 1, chunk_lines])
+      line_memory = fftw_alloc_real(int(n, C_SIZE_T) * per_chunk * count)
+      spectrum_memory = fftw_alloc_real(2_C_SIZE_T * (n / 2 + 1) * per_chunk * count)
+      call c_f_pointer(line_memory, extended, [n, per_chunk * count])
+      call c_f_pointer(spectrum_memory, spectrum, [n / 2 + 1, per_chunk * count])
       dims(1) = fftw_iodim(n, 1, 1)
-      many(1) = fftw_iodim(chunk_lines, n, n / 2 + 1)
+      many(1) = fftw_iodim(per_chunk * count, n, n / 2 + 1)
       plan = fftw_plan_guru_dft_r2c(1, dims, 1, many, line_memory, spectrum_memory, FFTW_ESTIMATE)
-      extended = 0.0_dp
+      extended = 0.0_dp   ! a short last chunk transforms columns it does not read back
       in_chunk = 0
       do line = 0, lines - 1
-        do b = 1, count
-          in_chunk = in_chunk + 1
-          ! The line's first point: (inner, outer) around axis a.
-          first(in_chunk) = mod(line, stride) + (line / stride) * stride * m(a)
-          entry(in_chunk) = b
-          do j = 0, m(a) - 1
-            extended(j + 1, in_chunk) = values(b, first(in_chunk) + j * stride)
-          end do
-          do j = m(a), n - 1
-            extended(j + 1, in_chunk) = parity(b, a) * values(b, first(in_chunk) + (n - j) * stride)
-          end do
-          if (in_chunk == chunk_lines .or. (line == lines - 1 .and. b == count)) then
-            call fftw_execute(plan)
-            do c = 1, in_chunk
-              if (parity(entry(c), a) > 0) then
-                do j = 0, m(a) - 1
-                  values(entry(c), first(c) + j * stride) = real(spectrum(j + 1, c), dp)
-                end do
-              else
-                do j = 0, m(a) - 1
-                  values(entry(c), first(c) + j * stride) = aimag(spectrum(j + 1, c))
-                end do
-              end if
-            end do
-            in_chunk = 0
-          end if
+        in_chunk = in_chunk + 1
+        ! The line's first point: (inner, outer) around axis a.
+        first(in_chunk) = mod(line, stride) + (line / stride) * stride * m(a)
+        c0 = (in_chunk - 1) * count
+        do j = 0, m(a) - 1
+          point = first(in_chunk) + j * stride
+          extended(j + 1, c0 + 1:c0 + count) = values(1:count, point)
         end do
+        do b = 1, count
+          do j = m(a), n - 1
+            extended(j + 1, c0 + b) = parity(b, a) * extended(n - j + 1, c0 + b)
+          end do
+        end do
+        if (in_chunk == per_chunk .or. line == lines - 1) then
+          call fftw_execute(plan)
+          do l = 1, in_chunk
+            c0 = (l - 1) * count
+            do j = 0, m(a) - 1
+              point = first(l) + j * stride
+              do b = 1, count
+                if (parity(b, a) > 0) then
+                  values(b, point) = real(spectrum(j + 1, c0 + b), dp)
+                else
+                  values(b, point) = aimag(spectrum(j + 1, c0 + b))
+                end if
+              end do
+            end do
+          end do
+          in_chunk = 0
+        end if
       end do
       call fftw_destroy_plan(plan)
       call fftw_free(line_memory)
