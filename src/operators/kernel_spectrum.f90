@@ -41,7 +41,7 @@ module beadmob_kernel_spectrum
   !> Lines transformed by one FFTW call.
   integer, parameter :: chunk_lines = 256
   !> Entries per rank and round at most.
-  integer, parameter :: max_round_entries = 256
+  integer, parameter :: max_round_entries = 16
   !> Doubles of scratch the transform allocates for itself when the one it is given holds fewer
   !> entries per round (64 MiB).
   integer(i8), parameter :: own_scratch_doubles = 8388608_i8
