@@ -53,18 +53,24 @@ def write_input(name, beads, order):
     return nml
 
 
-def run(exe, nml, operator):
-    """(whole process, friction job, the job's estimated seconds, beads in the solve, solves)."""
-    result = nml.with_suffix(".h5")
+def timed_job(exe, nml, operator, cwd, result, read):
+    """One job with `-operator operator` on RANKS ranks: (whole process in seconds, read(the result
+    file's /hydrodynamics group)). The result file is removed first, so a stale one is never read."""
     result.unlink(missing_ok=True)
     start = time.perf_counter()
-    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-operator", operator, "-quiet"], cwd=WORK, env=ENV,
+    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-operator", operator, "-quiet"], cwd=cwd, env=ENV,
                    check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     with h5py.File(result) as f:
-        h = f["hydrodynamics"]
-        return (wall, float(h.attrs["phase_seconds"][-1]), float(h.attrs["estimated_seconds"]),
-                int(h.attrs["hydrodynamic_beads"]), int(h.attrs["planned_solves"]))
+        return wall, read(f["hydrodynamics"])
+
+
+def run(exe, nml, operator):
+    """(whole process, friction job, the job's estimated seconds, beads in the solve, solves)."""
+    wall, values = timed_job(exe, nml, operator, WORK, nml.with_suffix(".h5"), lambda h: (
+        float(h.attrs["phase_seconds"][-1]), float(h.attrs["estimated_seconds"]), int(h.attrs["hydrodynamic_beads"]),
+        int(h.attrs["planned_solves"])))
+    return (wall,) + values
 
 
 def auto_pick(exe, nml):

@@ -14,39 +14,28 @@ usage: python3 bench/side_by_side/high_order_blocks.py --before OLD_EXE [--exe b
 import argparse
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "e2e"))
+sys.path.insert(0, str(ROOT / "bench" / "operator_check"))
 from eden_body import eden_body  # noqa: E402
 import solver_promise  # noqa: E402
+from lattice_crossover import RANKS, timed_job  # noqa: E402  (the same launch)
 
-RANKS = 2
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_pml=os.environ.get("OMPI_MCA_pml", "ob1"))
 PHASES = ["blocks", "near_field", "solve", "companion", "lubrication", "total"]
 
 
 def run(exe, nml, operator, work):
     """(whole process, job, blocks phase, friction, solver bound) of one run."""
-    result = work / "result.h5"
-    result.unlink(missing_ok=True)
-    start = time.perf_counter()
-    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-operator", operator, "-quiet"], cwd=work, env=ENV,
-                   check=True, stdout=subprocess.DEVNULL)
-    wall = time.perf_counter() - start
-    with h5py.File(result) as f:
-        h = f["hydrodynamics"]
-        phases = h.attrs["phase_seconds"]
-        return (wall, float(phases[-1]), float(phases[PHASES.index("blocks")]), h["multipole_friction"][()],
-                solver_promise.bound(h))
+    wall, values = timed_job(exe, nml, operator, work, work / "result.h5", lambda h: (
+        float(h.attrs["phase_seconds"][-1]), float(h.attrs["phase_seconds"][PHASES.index("blocks")]),
+        h["multipole_friction"][()], solver_promise.bound(h)))
+    return (wall,) + values
 
 
 def main():
