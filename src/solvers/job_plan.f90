@@ -137,13 +137,13 @@ contains
     type(friction_settings_t), intent(in) :: settings
     integer :: spans(3), a
     spans = 0
-    do a = 1, 3
-      if (on_unit_lattice(centres)) then
-        spans(a) = nint(maxval(centres(a, :)) - minval(centres(a, :)))
-      else if (operator_name == 'pfft') then
+    if (on_unit_lattice(centres)) then
+      spans = nint(maxval(centres, dim=2) - minval(centres, dim=2))
+    else if (operator_name == 'pfft') then
+      do a = 1, 3
         spans(a) = pfft_span(centres(a, :), settings%pfft_stencil)
-      end if
-    end do
+      end do
+    end if
   end function operator_spans
 
   !> The lattice axes along which the solve beads are symmetric, which the FFT operator's products
@@ -248,11 +248,14 @@ contains
     character(len=*), intent(out) :: chosen
     type(error_t), intent(inout) :: err
     character(len=4) :: fast
+    logical :: on_lattice, mirrors(3)
     select case (trim(settings%operator_name))
     case ('direct', 'fft', 'pfft', 'dense')
       chosen = settings%operator_name
     case ('auto')
-      fast = merge('fft ', 'pfft', on_unit_lattice(centres))
+      on_lattice = on_unit_lattice(centres)
+      mirrors = fft_mirrors(centres, settings)   ! once, for both estimates
+      fast = merge('fft ', 'pfft', on_lattice)
       if (size(centres, 2) <= dense_max_beads .and. &
           size(centres, 2) * basis_size(settings%multipole_order, settings%potential_order) <= dense_max_unknowns) then
         chosen = 'dense'
@@ -274,10 +277,10 @@ contains
       character(len=*), intent(in) :: operator_name
       type(job_estimate_t) :: e
       e = estimate_job(size(centres, 2, kind=i8), size(centres, 2, kind=i8), &
-                       operator_spans(centres, operator_name, settings), on_unit_lattice(centres), &
+                       operator_spans(centres, operator_name, settings), on_lattice, &
                        settings%multipole_order, settings%potential_order, operator_name, n_ranks, n_solves, shell, &
                        1.0_dp, settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions), &
-                       settings%pfft_near_radius, fft_mirrors(centres, settings))
+                       settings%pfft_near_radius, mirrors)
       estimated_seconds = e%seconds_total
     end function estimated_seconds
   end subroutine choose_operator
