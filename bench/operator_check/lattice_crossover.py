@@ -53,13 +53,14 @@ def write_input(name, beads, order):
     return nml
 
 
-def timed_job(exe, nml, operator, cwd, result, read):
-    """One job with `-operator operator` on RANKS ranks: (whole process in seconds, read(the result
-    file's /hydrodynamics group)). The result file is removed first, so a stale one is never read."""
+def timed_job(exe, nml, operator, cwd, result, read, options=()):
+    """One job with `-operator operator` (and further command-line options) on RANKS ranks: (whole
+    process in seconds, read(the result file's /hydrodynamics group)). The result file is removed
+    first, so a stale one is never read."""
     result.unlink(missing_ok=True)
     start = time.perf_counter()
-    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-operator", operator, "-quiet"], cwd=cwd, env=ENV,
-                   check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-operator", operator, *options, "-quiet"], cwd=cwd,
+                   env=ENV, check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     with h5py.File(result) as f:
         return wall, read(f["hydrodynamics"])
