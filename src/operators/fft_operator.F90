@@ -153,11 +153,9 @@ module beadmob_fft_operator
 
   !> Vectors one batched product transforms at most (the motions of a job).
   integer, parameter :: max_copies = 6
-  !> Time of a cosine or sine pass (mirror_transform.f90) against a complex transform of the same
-  !> length and lines, as fft_seconds counts it: FFTW's r2r passes cost about twice (paper cone, 2
-  !> ranks), but rows and planes without beads are skipped and short stretches pass as matrix
-  !> products, so over the jobs of bench/scaling/time_estimate.md a pass counts 1.2.
-  real(dp), parameter :: r2r_factor = 1.2_dp
+  !> Time of a cosine or sine pass of FFTW (mirror_transform.f90) against a complex transform of
+  !> the same length and lines, as fft_seconds counts it (measured on the paper cone, 2 ranks).
+  real(dp), parameter :: r2r_factor = 2.0_dp
 
   !> One spectrum of a batched product.
   type :: spectrum_ref_t
@@ -332,8 +330,7 @@ contains
   !> motion, within a quarter of the kernel or 64 MiB) for order L and the companion, and the
   !> set-up time: the blocks, then the kernel from its octant with the entries split over the
   !> ranks (each formed at the octant's displacements, three passes of extended lines and the
-  !> exchange: about two transform units per point since the fill by precomputed terms and the
-  !> passes on whole lines, bench/scaling/time_estimate.md).
+  !> exchange: about six transform units per point, measured on a 113081-bead sphere).
   pure subroutine batch_and_setup_cost(size, lines, cost)
     type(job_size_t), intent(in) :: size
     real(dp), intent(in) :: lines
@@ -353,7 +350,7 @@ contains
     cost%fft_buffer = cost%fft_buffer * (1 + min(copies, real(floor(allowance / cost%fft_buffer), dp)))
     cost%seconds_setup = lattice_blocks_seconds(size, cost%canonical_blocks) &
                          + nb * (nb + 1) / 2 * (fill_seconds * product(real(size%spans + 1, dp)) &
-                                                + 2 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
+                                                + 6 * fft_seconds * product(real(cost%fft_box / 2 + 1, dp)) * log_sites) &
                          / size%n_ranks
   end subroutine batch_and_setup_cost
 

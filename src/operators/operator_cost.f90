@@ -1,7 +1,6 @@
 !> What an operator will cost before it is built (the operator part of the dry run,
 !> job_estimate.f90): the sizes of a job, the measured rates of this project's 2-core machine
-!> (bench/scaling/time_estimate.md, estimated against measured jobs; bench/scaling/scaling.md,
-!> "Estimate against measurement", the memory; another machine scales them by its speed),
+!> (bench/scaling/scaling.md, "Estimate against measurement"; another machine scales them by its speed),
 !> and the memory and time terms each operator reports through multipole_operator_t%cost.
 module beadmob_operator_cost
   use beadmob_kinds, only: dp, i8
@@ -10,28 +9,22 @@ module beadmob_operator_cost
   implicit none
   private
   public :: job_size_t, operator_cost_t, canonical_blocks_of, quadrature_seconds, transform_bytes, lattice_blocks_seconds
-  public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, near_entry_seconds, transpose_fraction, &
-            fft_field_seconds, lattice_block_seconds, lattice_entry_seconds
+  public :: fill_seconds, fft_seconds, multiply_seconds, direct_seconds, transpose_fraction, fft_field_seconds, &
+            lattice_block_seconds, lattice_entry_seconds
 
-  ! Rates (seconds) measured on the development machine (one core per rank). The FFT operator's
-  ! (fill, transforms, frequency product) and the off-lattice direct product's were refitted for
-  ! issue 24 to the jobs of bench/scaling/time_estimate.md, whose estimates had grown 1.6-3x too
-  ! high as the products got faster (the same picks of `auto`: bench/operator_check/lattice_crossover.md,
-  ! bench/offlattice/pfft_crossover.md).
+  ! Rates (seconds) measured on the development machine (one core per rank).
   real(dp), parameter :: quadrature_seconds_l2 = 6.5e-4_dp  ! one canonical block at L = 2
-  real(dp), parameter :: fill_seconds = 1.75e-8_dp     ! one packed kernel entry of one data site
-  real(dp), parameter :: fft_seconds = 0.54e-9_dp      ! per field, per site and log2(sites), one transform
-  real(dp), parameter :: multiply_seconds = 1.08e-9_dp ! per packed entry and frequency
-  real(dp), parameter :: direct_seconds = 0.36e-9_dp   ! per block entry of the direct product (off the lattice)
-  real(dp), parameter :: near_entry_seconds = 0.2e-9_dp ! per block entry of the pfft operator's near pairs, each way
+  real(dp), parameter :: fill_seconds = 5.0e-8_dp      ! one packed kernel entry of one site (113081-bead sphere)
+  real(dp), parameter :: fft_seconds = 0.75e-9_dp      ! per field, per site and log2(sites), one transform
+  real(dp), parameter :: multiply_seconds = 1.5e-9_dp  ! per packed entry and frequency
+  real(dp), parameter :: direct_seconds = 1.0e-9_dp    ! per block entry of the direct product (off the lattice)
   !> The lattice direct product, whose blocks come from a table in cache: per block a fixed part
   !> and a part per entry (fitted to the friction jobs of lattice bodies of 200-925 beads at
   !> L = 1, 2, 3, bench/operator_check/lattice_crossover.md: 1.2x and 1.7x below 1e-9 per entry)
   real(dp), parameter :: lattice_block_seconds = 8.6e-9_dp, lattice_entry_seconds = 0.6e-9_dp
-  !> The FFT products' fixed cost per field and vector (the transforms' calls on small boxes, the
-  !> transposes' messages, the folds), which decides at a few dozen to a hundred beads (the same
-  !> bench: 20-100 beads; bench/scaling/time_estimate.md's jobs of a few hundred beads)
-  real(dp), parameter :: fft_field_seconds = 1.5e-5_dp
+  !> The FFT products' fixed cost per field and vector (the transforms' calls on small boxes and
+  !> the transposes' messages), which decides at a few dozen beads (the same bench: 20-50 beads)
+  real(dp), parameter :: fft_field_seconds = 7.0e-6_dp
   !> The transposes of FFTW-MPI (more than one rank) hold message buffers of about half the FFT
   !> buffer on the largest rank (fitted to the 2-rank peaks of bench/scaling/scaling.md).
   real(dp), parameter :: transpose_fraction = 0.5_dp

@@ -30,7 +30,7 @@ module beadmob_pfft_operator
   use beadmob_multipole_operator, only: multipole_operator_t, operator_options_t
   use beadmob_near_pair_matrix, only: near_pair_matrix_t, make_near_pair_matrix, near_pair_product, &
                                       destroy_near_pair_matrix, hand_over_near_pair_matrix
-  use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, near_entry_seconds
+  use beadmob_operator_cost, only: job_size_t, operator_cost_t, quadrature_seconds, direct_seconds
   use beadmob_fft_operator, only: fft_cost
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within, sort_keys
   use beadmob_counting_sort, only: counting_sort
@@ -149,14 +149,12 @@ contains
     real(dp) :: near_pairs
     call fft_cost(size, cost)
     near_pairs = size%local_beads * min(real(size%solve_beads, dp), 4.0_dp / 3.0_dp * acos(-1.0_dp) * size%near_radius**3)
-    ! half of them stored and computed (each pair once, C symmetric), applied both ways per product;
-    ! each pair's set-up gathers the kernel at its 7^3 stencil offsets and turns its exact block
-    ! from the axial table (a 250th of a quadrature)
+    ! half of them stored and computed (each pair once, C symmetric), applied both ways per product
     cost%blocks = near_pairs / 2 * 8 * (size%nb**2 + size%nb_low**2)
-    cost%seconds_setup = cost%seconds_setup + near_pairs / 2 * (0.2_dp * near_entry_seconds * size%nb * (size%nb + 1) / 2 &
-                                                                * 343 + quadrature_seconds(size) / 250)
-    cost%seconds_product = cost%seconds_product + near_entry_seconds * size%nb**2 * near_pairs
-    cost%seconds_low_product = cost%seconds_low_product + near_entry_seconds * size%nb_low**2 * near_pairs
+    cost%seconds_setup = cost%seconds_setup + near_pairs / 2 * (0.1_dp * direct_seconds * size%nb * (size%nb + 1) / 2 * 343 + &
+                                                                quadrature_seconds(size) / 100)
+    cost%seconds_product = cost%seconds_product + direct_seconds * size%nb**2 * near_pairs
+    cost%seconds_low_product = cost%seconds_low_product + direct_seconds * size%nb_low**2 * near_pairs
   end subroutine pfft_cost
 
   subroutine destroy_pfft(this)

@@ -8,7 +8,7 @@
 !> fft_operator.F90, bead_operator.F90, pfft_operator.F90; the companion of the error bar,
 !> theory.md T14, while the order-L operator is still held). Time: the operator's set-up and
 !> product times (operator_cost.f90: rates measured on this project's 2-core machine,
-!> bench/scaling/time_estimate.md), CG iterations ~ a N^0.17 (the shell model: a N^0.104).
+!> bench/scaling/scaling.md, "Estimate against measurement"), CG iterations ~ a N^0.17.
 module beadmob_job_estimate
   use beadmob_kinds, only: dp, i8
   use beadmob_multipole_basis, only: basis_size
@@ -30,9 +30,6 @@ module beadmob_job_estimate
   !> The companion's iterations relative to the order-L solve's (started from its solution:
   !> 13, 10, 16, 18 against 17, 14, 22, 19 on the paper cone)
   real(dp), parameter :: companion_iteration_ratio = 0.8_dp
-  !> The set-up's fixed part whatever the operator (plans, PETSc objects, scatters; fitted to the
-  !> jobs of a few hundred beads of bench/scaling/time_estimate.md)
-  real(dp), parameter :: setup_seconds = 4.0e-3_dp
 
   type :: job_estimate_t
     integer(i8) :: n_beads = 0, solve_beads = 0, unknowns = 0
@@ -133,7 +130,7 @@ contains
     end if
     products = real(n_solves, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
     low_products = real(n_solves, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
-    e%seconds_blocks = (setup_seconds + cost%seconds_setup) * max(oversubscription, 1.0_dp)
+    e%seconds_blocks = cost%seconds_setup * max(oversubscription, 1.0_dp)
     e%seconds_solve = products * cost%seconds_product * max(oversubscription, 1.0_dp)
     if (size%nb_low > 0) e%seconds_companion = low_products * cost%seconds_low_product * max(oversubscription, 1.0_dp)
     e%seconds_total = e%seconds_blocks + e%seconds_solve + e%seconds_companion

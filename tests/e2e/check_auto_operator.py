@@ -9,7 +9,7 @@ bench/offlattice/pfft_crossover.md) and 1419 beads (pfft, measured 4-7x faster a
 there).
 
 lattice: the direct operator against the FFT operator, cases measured side by side in
-bench/operator_check/lattice_crossover_work_ratio.md: a random compact 50-bead body at L = 1 (direct, 1.30x
+bench/operator_check/lattice_crossover.md: a random compact 50-bead body at L = 1 (direct, 1.30x
 faster there), lattice balls of radius 6 at L = 1 (925 beads: the FFT operator 2.85x faster) and of
 radius 4 at L = 2 (257 beads: 1.73x), both of which the earlier work rule gave to the direct operator."""
 import os
