@@ -23,7 +23,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,7 +31,7 @@ sys.path.insert(0, str(ROOT / "bench" / "offlattice"))
 sys.path.insert(0, str(ROOT / "bench" / "operator_check"))
 from eden_body import eden_body  # noqa: E402
 from offlattice import jittered  # noqa: E402
-from lattice_crossover import ENV, RANKS  # noqa: E402  (the same launch)
+from lattice_crossover import ENV, RANKS, timed_job  # noqa: E402  (the same launch)
 
 PHASES = ["blocks", "near_field", "solve", "companion", "lubrication", "total"]
 UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
@@ -86,18 +85,15 @@ def dry_run(exe, nml, work):
 
 
 def measured(exe, nml, work):
-    result = work / "result.h5"
-    result.unlink(missing_ok=True)
-    subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml), "-quiet"], cwd=work, env=ENV, check=True,
-                   stdout=subprocess.DEVNULL)
-    with h5py.File(result) as f:
-        h = f["hydrodynamics"]
+    """The run's phases (s), solves and mean iterations per solved motion, and its operator."""
+    def read(h):
         phase = h.attrs["phase_seconds"]
         solved = h.attrs["solve_iterations"][h.attrs["solve_source"] == 0]
         return {"total": float(phase[PHASES.index("total")]), "blocks": float(phase[PHASES.index("blocks")]),
                 "solve": float(phase[PHASES.index("solve")]), "companion": float(phase[PHASES.index("companion")]),
                 "solves": len(solved), "iterations": float(np.mean(solved)) if len(solved) else 0.0,
                 "operator": h.attrs["operator"].decode() + (" by class" if h.attrs["fft_by_mirror_class"] else "")}
+    return timed_job(exe, nml, "auto", work, work / "result.h5", read)[1]   # auto: the default
 
 
 def ratio(estimate, measure):
