@@ -11,17 +11,17 @@ module beadmob_continuum_job
   use mpi, only: MPI_Bcast, MPI_INTEGER, MPI_DOUBLE_PRECISION, MPI_Wtime
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str, either
+  use beadmob_strings, only: str, str_approx, either
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_input_config, only: run_config_t, effective_input_text, is_set
   use beadmob_checkpoint_file, only: fnv1a_hex
   use beadmob_bead_model, only: bead_model_t
   use beadmob_lattice_fill, only: offset_sequence
-  use beadmob_shape_catalog, only: build_bead_model
+  use beadmob_shape_catalog, only: build_bead_model, read_mesh_once, triangle_mesh_t
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
-  use beadmob_body_moments, only: body_moments_t, moments_of_beads, equivalent_ellipsoid
+  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
@@ -39,12 +39,12 @@ module beadmob_continuum_job
   character(len=*), parameter :: filled_shapes(14) = [character(len=16) :: 'sphere', 'spheroid', 'torus', 'mesh', &
     'box', 'cylinder', &
     'cone', 'arrowhead', 'crescent_moon', 'ring_1mm', 'ring_2mm', 'ring_3mm', 'ring_4mm', 'open_ring']
-  !> Candidate finest levels: bead_diameter * 2**(j/3), j from ladder_coarsest down to ladder_finest.
-  integer, parameter :: ladder_coarsest = 6, ladder_finest = -15
   !> A ladder whose coarsest level has fewer beads is too coarse to extrapolate from.
   integer, parameter :: minimum_coarsest_beads = 100
   !> The pilot solve that calibrates the time estimates has about this many beads.
   integer, parameter :: pilot_beads = 1000
+  !> Candidate ladders reach this many levels below the coarsest feasible one (bead counts 2**ladder_span).
+  integer, parameter :: ladder_span = 21
   !> Numbers per sample in the checkpoint: see pack_sample.
   integer, parameter :: sample_numbers = 60
 
@@ -55,6 +55,17 @@ module beadmob_continuum_job
     real(dp) :: friction(6, 6) = 0.0_dp          ! about the beads' centre of mass
     type(body_moments_t) :: moments              ! in the shape's unit
   end type continuum_sample_t
+
+  !> What the job knows of its levels before solving: level k has bead diameter
+  !> bead_diameter * 2**(k/3), k from `finest` to `coarsest` (survey_body); per level the beads at
+  !> the first offset and the dry run's estimate of a sample (s), -1 until surveyed; the pilot's
+  !> calibration of the estimates.
+  type :: ladder_survey_t
+    integer :: user_beads = 0, coarsest = 0, finest = 0
+    real(dp) :: thinnest = 0.0_dp, calibration = 1.0_dp
+    integer, allocatable :: beads(:)
+    real(dp), allocatable :: seconds(:)
+  end type ladder_survey_t
 
 contains
 
@@ -68,13 +79,14 @@ contains
     type(body_moments_t) :: body
     type(bead_model_t) :: model
     type(body_frame_t) :: frame
+    type(triangle_mesh_t) :: mesh
+    type(ladder_survey_t) :: survey
     real(dp), allocatable :: diameters(:), volumes(:)
-    real(dp) :: estimated_seconds, finest, calibration, pilot_d, estimate
+    real(dp) :: estimated_seconds, finest, estimate
     type(continuum_sample_t) :: pilot
-    type(error_t) :: refused
     logical :: budget_chooses
-    character(len=:), allocatable :: key, checkpoint
-    integer :: level, j, fill
+    character(len=:), allocatable :: key, checkpoint, chosen_by
+    integer :: level, j, fill, solved_here, pilot_level, finest_level
 
     call check_continuum_input(config, err)
     if (err%failed) return
@@ -84,24 +96,46 @@ contains
     allocate (samples(0))
     if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, finest, samples, err)
     if (err%failed) return
-    ! The dry run's time estimates, calibrated by one pilot sample (a level of about
-    ! pilot_beads beads) when the budget chooses the ladder; the pilot is kept when on it.
-    calibration = 1.0_dp
+    ! A mesh is read and checked once; every fill of the job below uses it.
+    if (config%shape%name == 'mesh') call read_mesh_once(ctx, config%shape, mesh, err)
+    if (err%failed) return
+
+    ! The ladder: levels the body's size allows (every one with enough beads), the finest whose
+    ! estimated time fits the budget. All of it is decided before any solve, by geometry-only
+    ! fills and the dry run's estimates; only the pilot's calibration (below) depends on speed.
+    call survey_body(ctx, config, mesh, survey, err)
+    if (err%failed) return
+    pilot_level = huge(1)
     budget_chooses = finest <= 0.0_dp .and. .not. is_set(config%continuum%finest_bead_diameter)
-    if (budget_chooses .and. .not. config%dry_run) then
-      call pilot_diameter(ctx, config, pilot_d, err)
+    if (budget_chooses) then
+      chosen_by = 'time_budget'
+      call budget_ladder(ctx, config, mesh, survey, 1.0_dp, diameters, estimated_seconds, finest_level, err)
       if (err%failed) return
-      pilot = solve_sample(0, 1, pilot_d)
+      call pilot_level_of(ctx, config, mesh, survey, finest_level, pilot_level, err)
       if (err%failed) return
-      call sample_estimate(ctx, config, pilot_d, estimate, refused, err)
+    else
+      chosen_by = either(finest > 0.0_dp, 'checkpoint', 'finest_bead_diameter')
+      call fixed_ladder(ctx, config, mesh, survey, merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp), &
+                        diameters, estimated_seconds, err)
       if (err%failed) return
-      if (estimate > 0.0_dp) calibration = max(1.0_dp, pilot%seconds / estimate)
     end if
-    call choose_ladder(ctx, config, finest, calibration, diameters, estimated_seconds, err)
-    if (err%failed .or. config%dry_run) return
-    if (pilot%level == 0 .and. pilot%beads > 0) then
+    if (config%dry_run .or. config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, &
+                                                                1.0_dp, pilot_level)
+    if (config%dry_run) return
+    ! The dry run's estimates, calibrated by one pilot sample of about pilot_beads beads (kept when
+    ! it lands on the ladder); a pilot slower than its estimate can only make the ladder coarser.
+    if (budget_chooses) then
+      pilot = solve_sample(0, 1, level_diameter(config, pilot_level))
+      if (err%failed) return
+      estimate = survey%seconds(pilot_level)
+      if (estimate > 0.0_dp .and. pilot%beads >= minimum_coarsest_beads) survey%calibration = max(1.0_dp, pilot%seconds / estimate)
+      if (survey%calibration > 1.0_dp) then
+        call budget_ladder(ctx, config, mesh, survey, survey%calibration, diameters, estimated_seconds, finest_level, err)
+        if (err%failed) return
+        if (config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, survey%calibration)
+      end if
       do level = 1, size(diameters)
-        if (abs(diameters(level) - pilot_d) <= 1.0e-9_dp * pilot_d) then
+        if (abs(diameters(level) - pilot%bead_diameter) <= 1.0e-9_dp * pilot%bead_diameter) then
           pilot%level = level
           samples = [samples, pilot]
         end if
@@ -111,12 +145,13 @@ contains
     ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90).
     allocate (volumes(config%continuum%moment_fills))
     do fill = 1, config%continuum%moment_fills
-      call build_at(ctx, config, diameters(size(diameters)), fill, model, err)
+      call build_at(ctx, config, mesh, diameters(size(diameters)), fill, model, err)
       if (err%failed) return
       call accumulate(body, moments_of_beads(model%centres, diameters(size(diameters))), config%continuum%moment_fills)
       volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
     end do
 
+    solved_here = 0
     do level = 1, size(diameters)
       do j = 1, config%continuum%offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
@@ -125,13 +160,21 @@ contains
         if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, diameters(size(diameters)), samples, err)
         call agree_on_error(ctx, err)
         if (err%failed) return
+        ! The test stop of -stop_after_solves counts a continuum job's samples (a kill at a known
+        ! point: the checkpoint holds exactly these samples).
+        solved_here = solved_here + 1
+        if (solved_here == config%hydrodynamics%stop_after_solves) then
+          call raise(err, 'stopped after ' // str(solved_here) // ' samples as -stop_after_solves asks (a test of ' // &
+                     'the continuum checkpoint: rerun to resume)')
+          return
+        end if
       end do
     end do
 
     ! The reference model carries the geometry and the body frame of the coefficients: the finest
     ! level on the lattice through the body's origin (offset 0), which keeps the shape's mirror
     ! planes (an offset breaks them, and the paper's frame is chosen by them: body_frame.f90).
-    call build_at(ctx, config, diameters(size(diameters)), 0, model, err)
+    call build_at(ctx, config, mesh, diameters(size(diameters)), 0, model, err)
     if (err%failed) return
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
@@ -141,6 +184,8 @@ contains
     call continuum_values(config, diameters, samples, body, volumes, frame%axes, result, err)
     if (err%failed) return
     result%estimated_seconds = estimated_seconds
+    result%calibration = survey%calibration
+    result%chosen_by = chosen_by
     call write_result_file(ctx, config, model, frame, err, continuum=result)
     if (err%failed) return
     if (config%checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
@@ -162,7 +207,7 @@ contains
       real(dp) :: start
       start = MPI_Wtime()
       sample_config = config
-      call build_at(ctx, config, d, j, sample_model, err, sample_config)
+      call build_at(ctx, config, mesh, d, j, sample_model, err, sample_config)
       if (.not. err%failed .and. size(sample_model%centres, 2) < 2) &
         call raise(err, '&continuum: ' // str(size(sample_model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
                    ': the shape is too small for this resolution')
@@ -175,6 +220,7 @@ contains
         job%error_estimate = .false.
         job%progress = .false.
         job%checkpoint_file = ''
+        job%stop_after_solves = 0   ! counts samples here (run_continuum_job)
         call plan_friction_job(ctx, sample_config, sample_model%centres, plan, err)
         if (err%failed) return
         job%shell_layers = plan%shell_layers
@@ -222,9 +268,11 @@ contains
 
   !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
   !> (offset_sequence: well spread over the unit cell; j = 0: no offset); `used` gets the config.
-  subroutine build_at(ctx, config, d, j, model, err, used)
+  !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes.
+  subroutine build_at(ctx, config, mesh, d, j, model, err, used)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
+    type(triangle_mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: d
     integer, intent(in) :: j
     type(bead_model_t), intent(out) :: model
@@ -234,126 +282,287 @@ contains
     c = config
     c%shape%bead_diameter = d
     c%shape%lattice_offset = offset_sequence(j)
-    call build_bead_model(ctx, c%shape, model, err)
+    if (config%shape%name == 'mesh') then
+      call build_bead_model(ctx, c%shape, model, err, mesh)
+    else
+      call build_bead_model(ctx, c%shape, model, err)
+    end if
     call agree_on_error(ctx, err)
     if (present(used)) used = c
   end subroutine build_at
 
-  !> Collective. The bead diameters of the levels, coarsest first: from finest_bead_diameter, from
-  !> a checkpoint's ladder (finest > 0), or the finest ladder whose estimated time fits the
-  !> budget. A dry run prints the ladder.
-  subroutine choose_ladder(ctx, config, finest, calibration, diameters, estimated_seconds, err)
+  !> Level k's bead diameter: the user's bead_diameter * 2**(k/3) (bead counts a factor 2 apart).
+  pure real(dp) function level_diameter(config, k)
+    type(run_config_t), intent(in) :: config
+    integer, intent(in) :: k
+    level_diameter = config%shape%bead_diameter * 2.0_dp**(k / 3.0_dp)
+  end function level_diameter
+
+  !> Collective. The body's size before any level is filled: a mesh's exact volume and second
+  !> moments (moments_of_polyhedron), another shape's from one geometry-only fill at the user's
+  !> bead_diameter d (first offset). Its bead count at d, volume / d^3, foresees every level's
+  !> (beads ~ d^-3); its thinnest equivalent semi-axis bounds how coarse a level may be. The
+  !> coarsest candidate level is the coarsest foreseen to hold minimum_coarsest_beads and to be a
+  !> bead diameter thick; levels are filled (survey_level) only from there down, so a level
+  !> without beads is never visited, whatever the machine's speed.
+  subroutine survey_body(ctx, config, mesh, survey, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
-    real(dp), intent(in) :: finest, calibration
-    real(dp), allocatable, intent(out) :: diameters(:)
-    real(dp), intent(out) :: estimated_seconds
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(ladder_survey_t), intent(out) :: survey
     type(error_t), intent(inout) :: err
-    real(dp) :: seconds(ladder_finest:ladder_coarsest + 12), total, base
-    integer :: beads(ladder_finest:ladder_coarsest + 12), j, k, chosen, levels
-    type(error_t) :: refused
-
-    levels = config%continuum%levels
-    base = config%shape%bead_diameter
-    seconds = -1.0_dp
-    beads = -1
-    chosen = huge(1)
-    if (finest > 0.0_dp .or. is_set(config%continuum%finest_bead_diameter)) then
-      diameters = ladder(merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp))
-      estimated_seconds = 0.0_dp
-      do k = 1, levels
-        call sample_estimate(ctx, config, diameters(k), total, refused, err)
-        if (err%failed) return
-        estimated_seconds = estimated_seconds + config%continuum%offsets * total
-      end do
-    else
-      do j = ladder_coarsest, ladder_finest, -1
-        total = 0.0_dp
-        do k = j, j + levels - 1
-          if (seconds(k) < 0.0_dp) then
-            call sample_estimate(ctx, config, base * 2.0_dp**(k / 3.0_dp), seconds(k), refused, err, beads(k))
-            seconds(k) = calibration * seconds(k)
-          end if
-          if (err%failed) return
-          if (refused%failed) exit
-          total = total + config%continuum%offsets * seconds(k)
-        end do
-        if (refused%failed .or. total > config%continuum%time_budget) exit
-        if (beads(j + levels - 1) >= minimum_coarsest_beads) then
-          chosen = j
-          estimated_seconds = total
-        end if
-      end do
-      if (chosen == huge(1)) then
-        call raise(err, '&continuum: no ladder of ' // str(levels) // ' levels with at least ' // &
-                   str(minimum_coarsest_beads) // ' beads on the coarsest fits the time budget of ' // &
-                   str(config%continuum%time_budget) // ' s' // either(refused%failed, ' (or memory: ' // &
-                   trim(refused%message) // ')', '') // '; raise time_budget, or give finest_bead_diameter')
-        return
+    type(bead_model_t) :: model
+    type(body_moments_t) :: moments
+    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(13), beads
+    integer :: ierr
+    d = config%shape%bead_diameter
+    if (config%shape%name == 'mesh') then
+      if (ctx%rank == 0) then
+        moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
+        numbers = [moments%volume, moments%first, reshape(moments%second, [9])]
       end if
-      diameters = ladder(base * 2.0_dp**(chosen / 3.0_dp))
+      call MPI_Bcast(numbers, 13, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
+    else
+      call build_at(ctx, config, mesh, d, 1, model, err)
+      if (err%failed) return
+      moments = moments_of_beads(model%centres, d)
     end if
-    if (ctx%rank == 0 .and. (config%dry_run .or. config%progress)) then
-      write (*, '(a)') 'beadmob: continuum ladder of ' // str(levels) // ' levels x ' // str(config%continuum%offsets) // &
-        ' offsets, bead diameters (coarsest first):'
-      write (*, '(4x, *(es11.4))') diameters
-      write (*, '(a, f0.0, a, f0.0, a, f0.2, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
-        config%continuum%time_budget, ' s; the dry run''s estimates times ', calibration, &
-        either(calibration /= 1.0_dp, ', from a pilot solve)', ')')
+    beads = moments%volume / d**3
+    if (beads < 2.0_dp) then
+      call raise(err, '&continuum: the ' // trim(config%shape%name) // ' holds ' // trim(str_approx(beads)) // &
+                 ' bead(s) at its bead_diameter = ' // diameter_text(d) // &
+                 ': give the bead diameter of an ordinary run of the body (a finer one)')
+      return
     end if
+    call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, err)
+    if (err%failed) return
+    survey%user_beads = nint(min(beads, 2.0e9_dp))
+    survey%thinnest = minval(semi_axes)
+    ! beads(k) ~ beads 2**(-k) >= minimum_coarsest_beads, and d_k = d 2**(k/3) <= thinnest.
+    survey%coarsest = min(floor(log(beads / minimum_coarsest_beads) / log(2.0_dp)), &
+                          floor(3.0_dp * log(survey%thinnest / d) / log(2.0_dp)))
+    survey%finest = survey%coarsest - config%continuum%levels + 1 - ladder_span
+    allocate (survey%beads(survey%finest:survey%coarsest), survey%seconds(survey%finest:survey%coarsest))
+    survey%beads = -1
+    survey%seconds = -1.0_dp
+  end subroutine survey_body
 
-  contains
-
-    function ladder(smallest) result(values)
-      real(dp), intent(in) :: smallest
-      real(dp) :: values(levels)
-      integer :: i
-      values = [(smallest * 2.0_dp**((levels - i) / 3.0_dp), i = 1, levels)]
-    end function ladder
-
-  end subroutine choose_ladder
-
-  !> Collective. The dry run's estimate (s) of one sample at bead diameter d (n: its beads; a
-  !> model too coarse for a level gives 0 s); a plan refused for memory sets `refused`, 0 s.
-  subroutine sample_estimate(ctx, config, d, seconds, refused, err, n)
+  !> Collective. Level k surveyed once: its bead count at the first offset and the dry run's
+  !> estimate of one sample (uncalibrated; 0 s below minimum_coarsest_beads, where no plan is
+  !> made); a plan refused for memory leaves `refused` set and seconds = -2.
+  subroutine survey_level(ctx, config, mesh, survey, k, refused, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
-    real(dp), intent(in) :: d
-    real(dp), intent(out) :: seconds
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(ladder_survey_t), intent(inout) :: survey
+    integer, intent(in) :: k
     type(error_t), intent(inout) :: refused, err
-    integer, intent(out), optional :: n
     type(run_config_t) :: c
     type(bead_model_t) :: model
     type(job_plan_t) :: plan
-    seconds = 0.0_dp
+    if (survey%seconds(k) >= 0.0_dp) return
     ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-    call build_at(ctx, config, d, 1, model, err, c)
+    call build_at(ctx, config, mesh, level_diameter(config, k), 1, model, err, c)
     if (err%failed) return
+    survey%beads(k) = size(model%centres, 2)
+    survey%seconds(k) = 0.0_dp
+    if (survey%beads(k) < minimum_coarsest_beads) return
     c%dry_run = .false.
     c%hydrodynamics%error_estimate = .false.
     c%hydrodynamics%progress = .false.
-    if (present(n)) n = size(model%centres, 2)
-    if (size(model%centres, 2) < minimum_coarsest_beads) return   ! too coarse for a level: no plan needed
     call plan_friction_job(ctx, c, model%centres, plan, refused)
-    if (.not. refused%failed) seconds = plan%estimate%seconds_total
-  end subroutine sample_estimate
+    if (refused%failed) then
+      survey%seconds(k) = -2.0_dp
+    else
+      survey%seconds(k) = plan%estimate%seconds_total
+    end if
+  end subroutine survey_level
 
-  !> Collective. The pilot's bead diameter: the coarsest of the candidate levels with at least
-  !> pilot_beads beads (a second or so of solving).
-  subroutine pilot_diameter(ctx, config, d, err)
+  !> Collective. The finest ladder whose levels all hold minimum_coarsest_beads (the coarsest
+  !> is the fewest) and whose estimate times `calibration` fits the time budget. With none that
+  !> fits: refused when uncalibrated (before any solve), naming the cheapest feasible ladder and
+  !> its estimate; after a pilot (calibration > 1) the cheapest feasible ladder is run, with a
+  !> warning, since the pilot has shown only that this machine is slower than the estimates.
+  subroutine budget_ladder(ctx, config, mesh, survey, calibration, diameters, estimated_seconds, chosen, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
-    real(dp), intent(out) :: d
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(ladder_survey_t), intent(inout) :: survey
+    real(dp), intent(in) :: calibration
+    real(dp), allocatable, intent(out) :: diameters(:)
+    real(dp), intent(out) :: estimated_seconds
+    integer, intent(out) :: chosen     ! the finest level's index k
     type(error_t), intent(inout) :: err
-    type(bead_model_t) :: model
-    integer :: m
-    do m = ladder_coarsest, ladder_finest, -1
-      d = config%shape%bead_diameter * 2.0_dp**(m / 3.0_dp)
-      call build_at(ctx, config, d, 1, model, err)
-      if (err%failed) return
-      if (size(model%centres, 2) >= pilot_beads) return
+    type(error_t) :: refused
+    real(dp) :: total, cheapest_total
+    integer :: j, k, levels, cheapest
+    levels = config%continuum%levels
+    chosen = huge(1)
+    cheapest = huge(1)
+    cheapest_total = 0.0_dp
+    do j = survey%coarsest - levels + 1, survey%finest, -1
+      total = 0.0_dp
+      do k = j, j + levels - 1
+        call survey_level(ctx, config, mesh, survey, k, refused, err)
+        if (err%failed) return
+        if (refused%failed) exit
+        total = total + config%continuum%offsets * calibration * survey%seconds(k)
+      end do
+      if (refused%failed) exit
+      if (survey%beads(j + levels - 1) < minimum_coarsest_beads) cycle   ! foreseen, not found: go finer
+      if (cheapest == huge(1)) then
+        cheapest = j
+        cheapest_total = total
+      end if
+      if (total > config%continuum%time_budget) exit   ! finer ladders cost more
+      chosen = j
+      estimated_seconds = total
     end do
-  end subroutine pilot_diameter
+    if (chosen == huge(1) .and. (cheapest == huge(1) .or. calibration <= 1.0_dp)) then
+      if (cheapest == huge(1)) then
+        call raise(err, '&continuum: no ladder of ' // str(levels) // ' levels with at least ' // &
+                   str(minimum_coarsest_beads) // ' beads on the coarsest fits in memory' // &
+                   either(refused%failed, ' (' // trim(refused%message) // ')', '') // &
+                   '; give fewer levels, or a coarser bead_diameter')
+      else
+        call raise(err, '&continuum: no ladder of ' // str(levels) // ' levels fits the time budget of ' // &
+                   trim(seconds_text(config%continuum%time_budget)) // ': the cheapest whose coarsest level holds ' // &
+                   str(minimum_coarsest_beads) // ' beads (bead diameters ' // &
+                   trim(ladder_text(config, cheapest, levels)) // ') is estimated at ' // trim(seconds_text(cheapest_total)) // &
+                   '; raise time_budget to that, or give finest_bead_diameter')
+      end if
+      return
+    end if
+    if (chosen == huge(1)) then
+      chosen = cheapest
+      estimated_seconds = cheapest_total
+      if (ctx%rank == 0) write (*, '(a)') 'beadmob: warning: &continuum: the pilot solve ran ' // &
+        trim(str_approx(calibration)) // ' times slower than estimated; even the cheapest ladder is estimated at ' // &
+        trim(seconds_text(cheapest_total)) // ', beyond the time budget: running it'
+    end if
+    diameters = [(level_diameter(config, k), k = chosen + levels - 1, chosen, -1)]
+  end subroutine budget_ladder
+
+  !> Collective. The ladder ending at `finest` (finest_bead_diameter or a checkpoint's), refused
+  !> before any solve when its coarsest level holds fewer than minimum_coarsest_beads beads.
+  subroutine fixed_ladder(ctx, config, mesh, survey, finest, diameters, estimated_seconds, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(ladder_survey_t), intent(inout) :: survey
+    real(dp), intent(in) :: finest
+    real(dp), allocatable, intent(out) :: diameters(:)
+    real(dp), intent(out) :: estimated_seconds
+    type(error_t), intent(inout) :: err
+    type(run_config_t) :: c
+    type(bead_model_t) :: model
+    type(job_plan_t) :: plan
+    type(error_t) :: refused
+    integer :: k, levels
+    levels = config%continuum%levels
+    diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
+    estimated_seconds = 0.0_dp
+    do k = 1, levels
+      call build_at(ctx, config, mesh, diameters(k), 1, model, err, c)
+      if (err%failed) return
+      if (k == 1 .and. size(model%centres, 2) < minimum_coarsest_beads) then
+        call raise(err, '&continuum: finest_bead_diameter = ' // diameter_text(finest) // ' puts ' // str(size(model%centres, 2)) // &
+                   ' beads on the coarsest of ' // str(levels) // ' levels (bead diameter ' // diameter_text(diameters(1)) // &
+                   '; at least ' // str(minimum_coarsest_beads) // ' needed): a ladder of ' // str(levels) // &
+                   ' levels of this body needs finest_bead_diameter <= ' // &
+                   diameter_text(level_diameter(config, survey%coarsest - levels + 1)))
+        return
+      end if
+      c%dry_run = .false.
+      c%hydrodynamics%error_estimate = .false.
+      c%hydrodynamics%progress = .false.
+      call plan_friction_job(ctx, c, model%centres, plan, refused)
+      if (.not. refused%failed) estimated_seconds = estimated_seconds + config%continuum%offsets * plan%estimate%seconds_total
+    end do
+  end subroutine fixed_ladder
+
+  !> Collective. The pilot's level: the coarsest with at least pilot_beads beads (a second or
+  !> so of solving), but none finer than the ladder's finest level `lowest` (then it is a sample).
+  subroutine pilot_level_of(ctx, config, mesh, survey, lowest, k, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(ladder_survey_t), intent(inout) :: survey
+    integer, intent(in) :: lowest
+    integer, intent(out) :: k
+    type(error_t), intent(inout) :: err
+    type(error_t) :: refused
+    k = survey%coarsest
+    do while (k > lowest)
+      call survey_level(ctx, config, mesh, survey, k, refused, err)
+      if (err%failed) return
+      if (survey%beads(k) >= pilot_beads) exit
+      k = k - 1
+    end do
+    call survey_level(ctx, config, mesh, survey, k, refused, err)
+  end subroutine pilot_level_of
+
+  !> Rank 0 prints the ladder: its bead diameters and bead counts (first offset), the estimate,
+  !> and before the pilot, how the pilot may change it.
+  subroutine print_ladder(ctx, config, survey, diameters, estimated_seconds, calibration, pilot_level)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(ladder_survey_t), intent(in) :: survey
+    real(dp), intent(in) :: diameters(:), estimated_seconds, calibration
+    integer, intent(in), optional :: pilot_level
+    integer :: k, levels, first
+    if (ctx%rank /= 0) return
+    levels = size(diameters)
+    write (*, '(a)') 'beadmob: continuum ladder of ' // str(levels) // ' levels x ' // str(config%continuum%offsets) // &
+      ' offsets, bead diameters (coarsest first):'
+    write (*, '(4x, *(es11.4))') diameters
+    first = nint(3.0_dp * log(diameters(levels) / config%shape%bead_diameter) / log(2.0_dp))
+    if (abs(level_diameter(config, first) - diameters(levels)) <= 1.0e-9_dp * diameters(levels) .and. &
+        first >= survey%finest .and. first + levels - 1 <= survey%coarsest) then
+      if (all(survey%beads(first:first + levels - 1) >= 0)) &
+        write (*, '(a, *(i11))') '  beads', (survey%beads(k), k = first + levels - 1, first, -1)
+    end if
+    write (*, '(a, f0.0, a, f0.0, a, f0.2, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
+      config%continuum%time_budget, ' s; the dry run''s estimates times ', calibration, &
+      either(calibration /= 1.0_dp, ', from a pilot solve)', ')')
+    if (present(pilot_level)) then
+      if (pilot_level /= huge(1)) write (*, '(a)') '  a run first solves a pilot of ' // str(survey%beads(pilot_level)) // &
+        ' beads (bead diameter ' // trim(diameter_text(level_diameter(config, pilot_level))) // '); if it runs slower ' // &
+        'than its estimate, the estimates are scaled up and the finest level may move coarser (never below ' // &
+        str(minimum_coarsest_beads) // ' beads on the coarsest)'
+    end if
+  end subroutine print_ladder
+
+  !> "d1 ... d2" of the ladder whose finest level is k.
+  function ladder_text(config, k, levels) result(text)
+    type(run_config_t), intent(in) :: config
+    integer, intent(in) :: k, levels
+    character(len=:), allocatable :: text
+    text = diameter_text(level_diameter(config, k + levels - 1)) // ' ... ' // diameter_text(level_diameter(config, k))
+  end function ladder_text
+
+  !> A bead diameter in messages: four significant digits (levels are 26 % apart).
+  function diameter_text(d) result(text)
+    real(dp), intent(in) :: d
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    write (buffer, '(es10.3e2)') d
+    text = trim(adjustl(buffer))
+  end function diameter_text
+
+  function seconds_text(seconds) result(text)
+    real(dp), intent(in) :: seconds
+    character(len=:), allocatable :: text
+    character(len=32) :: buffer
+    if (seconds < 10.0_dp) then
+      write (buffer, '(f0.2)') seconds
+      if (buffer(1:1) == '.') buffer = '0' // buffer
+    else
+      write (buffer, '(i0)') nint(seconds)
+    end if
+    text = trim(buffer) // ' s'
+  end function seconds_text
 
   !> The corrected samples, the level means and the extrapolation (docs/theory.md T18).
   subroutine continuum_values(config, diameters, samples, body, volumes, axes, result, err)

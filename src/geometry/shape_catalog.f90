@@ -18,7 +18,7 @@ module beadmob_shape_catalog
   use beadmob_triangle_mesh, only: triangle_mesh_t, read_triangle_mesh, check_closed_mesh, fill_mesh_on_lattice
   implicit none
   private
-  public :: build_bead_model, known_shape_names
+  public :: build_bead_model, known_shape_names, read_mesh_once, triangle_mesh_t
 
   character(len=*), parameter :: known_shape_names = 'cone, arrowhead, crescent_moon, ring_1mm, ring_2mm, ' // &
     'ring_3mm, ring_4mm, open_ring, single_bead, bead_pair, chain, sphere, spheroid, box, cylinder, torus, bead_file, mesh'
@@ -31,11 +31,15 @@ module beadmob_shape_catalog
 
 contains
 
-  subroutine build_bead_model(ctx, shape_config, model, err)
+  !> `mesh`: for shape 'mesh', the file already read and checked by read_mesh_once (a job that
+  !> fills one mesh many times reads it once); a fill without a node is then an empty model, as
+  !> for the analytic shapes, and the caller judges it.
+  subroutine build_bead_model(ctx, shape_config, model, err, mesh)
     type(run_context_t), intent(in) :: ctx
     type(shape_config_t), intent(in) :: shape_config
     type(bead_model_t), intent(out) :: model
     type(error_t), intent(inout) :: err
+    type(triangle_mesh_t), intent(in), optional :: mesh
     character(len=:), allocatable :: name
 
     name = trim(shape_config%name)
@@ -63,7 +67,7 @@ contains
     case ('bead_file')
       call read_bead_file(ctx, shape_config, model, err)
     case ('mesh')
-      call fill_mesh_file(ctx, shape_config, model, err)
+      call fill_mesh_file(ctx, shape_config, model, err, mesh)
     case default
       call raise(err, "unknown shape name '" // name // "' (known: " // known_shape_names // ')')
     end select
@@ -306,12 +310,14 @@ contains
   end subroutine read_bead_file
 
   !> A triangle mesh (STL or OBJ) filled on the bead lattice at d = bead_diameter (mesh units):
-  !> read, checked and filled by rank 0 (triangle_mesh.f90), the beads broadcast.
-  subroutine fill_mesh_file(ctx, c, model, err)
+  !> read and checked by rank 0 (triangle_mesh.f90) unless `prepared` holds it already (from
+  !> read_mesh_once), filled by rank 0, the beads broadcast.
+  subroutine fill_mesh_file(ctx, c, model, err, prepared)
     type(run_context_t), intent(in) :: ctx
     type(shape_config_t), intent(in) :: c
     type(bead_model_t), intent(inout) :: model
     type(error_t), intent(inout) :: err
+    type(triangle_mesh_t), intent(in), optional :: prepared
     type(triangle_mesh_t) :: mesh
     integer :: sizes(2), ierr   ! beads, triangles
     real(dp) :: per_d
@@ -324,14 +330,19 @@ contains
     if (err%failed) return
     model%source = trim(c%file)
     if (ctx%rank == 0) then
-      call read_triangle_mesh(trim(c%file), mesh, err)
-      if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
-      if (.not. err%failed) call fill_mesh_on_lattice(mesh, per_d, trim(c%file), model%centres, err, &
-                                                                    c%lattice_offset)
-      if (.not. err%failed) then
-        if (size(model%centres, 2) == 0) call raise(err, "mesh file '" // trim(c%file) // &
-          "': no lattice node inside at bead_diameter = " // str(c%bead_diameter) // ' (a finer resolution is needed)')
-        sizes = [size(model%centres, 2), size(mesh%triangles, 2)]
+      if (present(prepared)) then
+        call fill_mesh_on_lattice(prepared, per_d, trim(c%file), model%centres, err, c%lattice_offset)
+        if (.not. err%failed) sizes = [size(model%centres, 2), size(prepared%triangles, 2)]
+      else
+        call read_triangle_mesh(trim(c%file), mesh, err)
+        if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
+        if (.not. err%failed) call fill_mesh_on_lattice(mesh, per_d, trim(c%file), model%centres, err, &
+                                                                      c%lattice_offset)
+        if (.not. err%failed) then
+          if (size(model%centres, 2) == 0) call raise(err, "mesh file '" // trim(c%file) // &
+            "': no lattice node inside at bead_diameter = " // str(c%bead_diameter) // ' (a finer resolution is needed)')
+          sizes = [size(model%centres, 2), size(mesh%triangles, 2)]
+        end if
       end if
     end if
     call agree_on_error(ctx, err)
@@ -341,6 +352,23 @@ contains
     if (ctx%rank /= 0) allocate (model%centres(3, sizes(1)))
     call MPI_Bcast(model%centres, 3 * sizes(1), MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
   end subroutine fill_mesh_file
+
+  !> Collective. The mesh of shape 'mesh' read and checked to bound a solid, on rank 0 (the
+  !> other ranks get an empty one): for build_bead_model's `mesh`, so a job of many fills reads
+  !> a large file once.
+  subroutine read_mesh_once(ctx, c, mesh, err)
+    type(run_context_t), intent(in) :: ctx
+    type(shape_config_t), intent(in) :: c
+    type(triangle_mesh_t), intent(out) :: mesh
+    type(error_t), intent(inout) :: err
+    if (ctx%rank == 0) then
+      call read_triangle_mesh(trim(c%file), mesh, err)
+      if (.not. err%failed) call check_closed_mesh(mesh, trim(c%file), err)
+    else
+      allocate (mesh%vertices(3, 0), mesh%triangles(3, 0))
+    end if
+    call agree_on_error(ctx, err)
+  end subroutine read_mesh_once
 
   !> per_d: lattice units (d) per unit of the shape's lengths: 1, or 1 / bead_diameter when it
   !> is given (then checked and recorded with the shape's parameters).

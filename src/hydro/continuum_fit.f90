@@ -21,6 +21,10 @@ module beadmob_continuum_fit
   type :: continuum_result_t
     integer :: offsets = 0, moment_fills = 0, multipole_order = 0
     real(dp) :: time_budget = 0.0_dp, estimated_seconds = 0.0_dp, reference_length = 0.0_dp
+    !> How the ladder was chosen (time_budget, finest_bead_diameter, checkpoint) and the pilot's
+    !> factor on the dry run's estimates (1 without a pilot).
+    character(len=:), allocatable :: chosen_by
+    real(dp) :: calibration = 1.0_dp
     real(dp), allocatable :: bead_diameters(:)                  ! per level, coarsest first
     !> The body from the moment fills: volume and its standard error, centroid, the equivalent
     !> ellipsoid's semi-axes and axes (columns).

@@ -9,22 +9,21 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    converged; the continuum friction is the inverse of the continuum mobility; the volume from the
    moment fills is 4 pi / 3 within its standard error (4x); the continuum coefficients are numpy's
    weighted quadratic fit of the level means (beadmob_post.continuum.quadratic_fit).
-2. Killed while it runs (SIGKILL once the checkpoint holds three samples): no result file; the
-   rerun says it resumes with those samples and gives the uninterrupted run's continuum values
+2. Stopped after three samples (-stop_after_solves 3, deterministic: a kill would race the job):
+   no result file, a checkpoint of exactly three samples; the rerun says it resumes with them and gives the uninterrupted run's continuum values
    within 1e-3 of their error bars (the resumed samples are read back to the last bit, the others
    solved again to the Krylov tolerance), and leaves no checkpoint.
 3. A checkpoint of another input is not used ("starting over"; seen by a dry run).
 4. Refused with a message and a non-zero exit: a bead file (not a filled shape), no bead_diameter,
-   levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits.
+   levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits, a
+   finest_bead_diameter whose coarsest level would hold fewer than 100 beads.
 5. --estimate prints the ladder and writes nothing.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes."""
 import math
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -105,31 +104,22 @@ def main(beadmob, mpiexec, ranks, workdir):
     check(abs(mu[0] - mu[1]) <= bar[0] + bar[1] and mu[2] > mu[0] and mu[3] > 0 > mu[4],
           f"cone: the paper's frame and pattern (mu {mu}, +- {bar})")
 
-    # 2. Killed, then resumed.
+    # 2. Stopped after three samples (-stop_after_solves counts a continuum job's samples: a stop
+    #    at a known point, where a kill would race the job), then resumed.
     nml = write_input(workdir, "killed.nml", "killed.h5", SPHERE + LADDER)
     checkpoint = Path(workdir) / "killed.h5.continuum_checkpoint"
     checkpoint.unlink(missing_ok=True)
     (Path(workdir) / "killed.h5").unlink(missing_ok=True)   # the result of an earlier run of this test
-    job = subprocess.Popen([mpiexec, "-n", str(ranks), beadmob, str(nml)], cwd=workdir, stdout=subprocess.DEVNULL,
-                           stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 600
-    while time.time() < deadline and job.poll() is None:
-        if checkpoint.exists() and len(checkpoint.read_text().splitlines()) >= 4:
-            break
-        time.sleep(0.05)
-    killed = job.poll() is None
-    if killed:
-        os.killpg(job.pid, signal.SIGKILL)
-        job.wait()
-        time.sleep(2)   # ranks outliving mpiexec for a moment may still finish a sample
-    check(killed, "the job was killed while running (after three samples)")
-    kept = len(checkpoint.read_text().splitlines()) - 1
-    check(kept >= 3 and not (Path(workdir) / "killed.h5").exists(),
-          f"killed: no result file, a whole checkpoint of {kept} samples")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "-stop_after_solves", "3")
+    check(done.returncode != 0 and "stopped after 3 samples" in done.stderr + done.stdout,
+          f"stopped after three samples: exit {done.returncode}, {(done.stderr.strip().splitlines() or [''])[-1]!r}")
+    kept = len(checkpoint.read_text().splitlines()) - 1 if checkpoint.exists() else 0
+    check(kept == 3 and not (Path(workdir) / "killed.h5").exists(),
+          f"stopped: no result file, a whole checkpoint of {kept} samples (3 expected)")
     done = run(beadmob, mpiexec, ranks, workdir, nml)
     said = [line for line in done.stdout.splitlines() if "resuming" in line]
-    check(done.returncode == 0 and f"resuming with {kept} samples" in done.stdout,
-          f"the rerun resumes with the {kept} samples: {said}")
+    check(done.returncode == 0 and "resuming with 3 samples" in done.stdout,
+          f"the rerun resumes with the 3 samples: {said}")
     resumed = continuum(Path(workdir) / "killed.h5")
     for name, error in (("coefficients", "coefficient_error"), ("mobility", "mobility_error")):
         difference = np.abs(resumed[name] - c[name])
@@ -155,6 +145,7 @@ def main(beadmob, mpiexec, ranks, workdir):
         ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics accuracy = 0.01 /\n" + LADDER,
          "accuracy target"),
         (SPHERE + "&continuum time_budget = 0.01 /\n", "fits the time budget"),
+        (SPHERE + "&continuum levels = 4, finest_bead_diameter = 0.5 /\n", "levels of this body needs finest_bead_diameter <="),
     ]
     for body, expected in refusals:
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
