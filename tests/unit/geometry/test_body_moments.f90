@@ -4,13 +4,16 @@
 !> continuous ellipsoid's (V = 4 pi abc / 3, moment a^2 / 5 per volume on each axis: exact
 !> integrals), so the equivalent ellipsoid of the averaged moments is the ellipsoid itself;
 !> the offsets are the continuum job's (offset_sequence: the Halton sequence in bases 2, 3, 5).
+!> moments_of_polyhedron on a box of sides 2, 3, 5 given as 12 triangles, turned and moved far
+!> off: volume 30, centroid the box's centre, central second moments per volume (s_i^2 / 12 on
+!> the box's axes: the exact integrals), to rounding.
 program test_body_moments
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_simple_shapes, only: build_spheroid
   use beadmob_lattice_fill, only: offset_sequence
-  use beadmob_body_moments, only: body_moments_t, moments_of_beads, equivalent_ellipsoid
+  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp), semi_axes(3) = [9.0_dp, 6.0_dp, 4.5_dp], d = 0.5_dp
   integer, parameter :: fills = 64
@@ -40,8 +43,53 @@ program test_body_moments
              'equivalent ellipsoid of the mean moments: the semi-axes')
   call check(suite, abs(abs(axes_found(3, 1)) - 1.0_dp) < 1.0e-6_dp .and. abs(abs(axes_found(1, 3)) - 1.0_dp) < 1.0e-6_dp, &
              'equivalent ellipsoid: its axes')
+  call check_box_polyhedron()
   one = body_moments_t()
   call equivalent_ellipsoid(one, 0.0_dp, semi_found, axes_found, err)
   call check(suite, err%failed, 'no volume: refused')
   call finish_tests(suite)
+
+contains
+
+  subroutine check_box_polyhedron()
+    real(dp), parameter :: sides(3) = [2.0_dp, 3.0_dp, 5.0_dp], shift(3) = [1000.3_dp, -2000.1_dp, 500.7_dp]
+    ! The unit cube's corners (bit k of the index: coordinate k) and its faces, outward.
+    integer, parameter :: faces(3, 12) = reshape([1, 3, 2, 2, 3, 4, 5, 6, 7, 6, 8, 7, 1, 2, 5, 2, 6, 5, &
+                                                   3, 7, 4, 4, 7, 8, 1, 5, 3, 3, 5, 7, 2, 4, 6, 4, 8, 6], [3, 12])
+    real(dp) :: corners(3, 8), turn(3, 3), central(3, 3), expected(3, 3), c(3)
+    type(body_moments_t) :: box
+    integer :: i, k
+    ! a turn about (1, 2, 2) / 3 by 0.7 rad (Rodrigues)
+    turn = rotation([1.0_dp, 2.0_dp, 2.0_dp] / 3.0_dp, 0.7_dp)
+    do i = 1, 8
+      corners(:, i) = [(real(merge(1, 0, btest(i - 1, k - 1)), dp), k = 1, 3)] * sides
+      corners(:, i) = matmul(turn, corners(:, i)) + shift
+    end do
+    box = moments_of_polyhedron(corners, faces, corners(:, 1))
+    call check_close(suite, box%volume, product(sides), 1.0e-12_dp, 'polyhedron: the box''s volume')
+    c = box%centroid() + corners(:, 1)
+    call check(suite, maxval(abs(c - (matmul(turn, sides / 2.0_dp) + shift))) < 1.0e-9_dp, 'polyhedron: the box''s centroid')
+    central = box%second / box%volume
+    c = box%centroid()
+    do k = 1, 3
+      central(:, k) = central(:, k) - c * c(k)
+    end do
+    expected = 0.0_dp
+    do k = 1, 3
+      expected(k, k) = sides(k)**2 / 12.0_dp
+    end do
+    expected = matmul(turn, matmul(expected, transpose(turn)))
+    call check(suite, maxval(abs(central - expected)) < 1.0e-11_dp, 'polyhedron: the box''s central second moments')
+  end subroutine check_box_polyhedron
+
+  pure function rotation(axis, angle) result(r)
+    real(dp), intent(in) :: axis(3), angle
+    real(dp) :: r(3, 3), k(3, 3)
+    integer :: i
+    k = reshape([0.0_dp, axis(3), -axis(2), -axis(3), 0.0_dp, axis(1), axis(2), -axis(1), 0.0_dp], [3, 3])
+    r = sin(angle) * k + (1.0_dp - cos(angle)) * matmul(k, k)
+    do i = 1, 3
+      r(i, i) = r(i, i) + 1.0_dp
+    end do
+  end function rotation
 end program test_body_moments

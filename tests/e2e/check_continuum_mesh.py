@@ -1,0 +1,149 @@
+#!/usr/bin/env python3
+"""check_continuum_mesh.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job on a user's own mesh
+(src/driver/continuum_job.f90; docs/theory.md T18, "The ladder"; docs/input.md, "The continuum job").
+
+The body is a lumpy triaxial ellipsoid (semi-axes 1.3, 1.0, 0.7 mesh units, its radius modulated
+by low spherical harmonics), written here as an OBJ mesh: it has no symmetry plane or axis, so
+every entry of its mobility is generic.
+
+1. The ladder comes from the body's size, never from a level without beads: dry runs at the
+   default budget of the mesh as made, with the coordinate origin outside the body (its bounding
+   box's corner), far from the origin (coordinates ~1e3) and in another unit (coordinates and
+   bead_diameter x 1000) all print a ladder whose every level holds at least 100 beads. The size
+   survey is exact for a mesh (its polyhedral volume), so the far-off and the unit-changed body get
+   the same bead diameters as the original (relative 1e-12 after the unit), and the unit change
+   gives the same beads on every level (the same lattice in the body's unit; up to 2 beads that
+   graze the surface).
+2. True under rotation and translation: the same mesh turned by a generic rotation R and moved
+   by t = (1000.3, -2000.1, 500.7) (the origin far outside) gives the continuum mobility R M R^T of
+   the unturned one (both about the body's centroid) within the two jobs' error bars, entry by
+   entry (the coupling entries depend on the reference point: the centroid must move and turn
+   with the body). The check can fail: R M R^T differs from M itself by more than the bars (checked), so a
+   job that ignored the turn would be caught.
+3. A bead_diameter too coarse for any level (the body below two beads) is refused by name before
+   any fill of a level."""
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from check_mesh_shapes import grid_surface, orient_outward  # noqa: E402
+from checklist import check, failures  # noqa: E402
+
+SEMI_AXES = np.array([1.3, 1.0, 0.7])
+SHIFT = np.array([1000.3, -2000.1, 500.7])
+
+
+def lumpy_ellipsoid(n=48):
+    """Triangles of the ellipsoid SEMI_AXES with radius factor 1 + 0.12 Y(u, v) (no symmetry)."""
+    def point(u, v):
+        lump = 1 + 0.12 * np.sin(v) * np.cos(v) * np.cos(u - 0.4) + 0.08 * np.sin(v) ** 2 * np.sin(2 * u + 0.9) \
+            + 0.05 * np.cos(v)
+        return np.array([SEMI_AXES[0] * lump * np.sin(v) * np.cos(u), SEMI_AXES[1] * lump * np.sin(v) * np.sin(u),
+                         SEMI_AXES[2] * lump * np.cos(v)])
+    triangles = grid_surface(point, 2 * n, n, closed_v=False)
+    return orient_outward(triangles, lambda p: p / SEMI_AXES ** 2)
+
+
+def write_obj(path, triangles):
+    """OBJ with 17 significant digits (float32 STL would round coordinates ~1e3 to 6e-5)."""
+    vertices, index = np.unique(triangles.reshape(-1, 3), axis=0, return_inverse=True)
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in vertices]
+    lines += [f"f {a} {b} {c}" for a, b, c in index.reshape(-1, 3) + 1]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def rotation(seed=7):
+    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def job(beadmob, mpiexec, ranks, workdir, name, mesh, bead_diameter, continuum, *options):
+    nml = Path(workdir) / f"{name}.nml"
+    nml.write_text(f"&run output = '{name}.h5' /\n&shape name = 'mesh', file = '{mesh}', "
+                   f"bead_diameter = {bead_diameter!r} /\n&hydrodynamics /\n&continuum {continuum} /\n")
+    (Path(workdir) / f"{name}.h5").unlink(missing_ok=True)
+    (Path(workdir) / f"{name}.h5.continuum_checkpoint").unlink(missing_ok=True)
+    return subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), *options], cwd=workdir,
+                          capture_output=True, text=True)
+
+
+def printed_ladder(stdout):
+    """(bead diameters, beads per level) of a dry run's ladder lines."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if "continuum ladder of" in line)
+    diameters = np.array([float(x) for x in lines[start + 1].split()])
+    beads = np.array([int(x) for x in re.sub("^ *beads", "", lines[start + 2]).split()])
+    return diameters, beads
+
+
+def main(beadmob, mpiexec, ranks, workdir):
+    workdir = Path(workdir)
+    workdir.mkdir(parents=True, exist_ok=True)
+    body = lumpy_ellipsoid()
+    turn = rotation()
+    corner = body - body.reshape(-1, 3).min(axis=0) + 0.05   # the origin just outside the bounding box
+    variants = {"made": (body, 0.1), "corner": (corner, 0.1), "far": (body + SHIFT, 0.1),
+                "millimetres": (body * 1000.0, 100.0)}
+    for name, (triangles, _) in variants.items():
+        write_obj(workdir / f"{name}.obj", triangles)
+    write_obj(workdir / "turned.obj", body @ turn.T + SHIFT)
+
+    # 1. Dry runs at the default budget.
+    ladders = {}
+    for name, (_, d) in variants.items():
+        done = job(beadmob, mpiexec, ranks, workdir, f"dry_{name}", f"{name}.obj", d, "", "--estimate")
+        if done.returncode != 0 or "continuum ladder of" not in done.stdout:
+            check(False, f"dry run of the {name} mesh: exit {done.returncode}\n{done.stdout}\n{done.stderr}")
+            continue
+        ladders[name] = printed_ladder(done.stdout)
+        check(np.all(ladders[name][1] >= 100), f"{name}: every level holds >= 100 beads ({ladders[name][1]})")
+    if len(ladders) == len(variants):
+        scale = {"made": 1.0, "corner": 1.0, "far": 1.0, "millimetres": 1000.0}
+        for name in ("corner", "far", "millimetres"):
+            check(np.allclose(ladders[name][0] / scale[name], ladders["made"][0], rtol=1e-12, atol=0),
+                  f"{name}: the same bead diameters as the mesh as made ({ladders[name][0]})")
+        check(np.all(np.abs(ladders["millimetres"][1] - ladders["made"][1]) <= 2),
+              f"another unit: the same beads per level ({ladders['millimetres'][1]} vs {ladders['made'][1]})")
+
+    # 2. Turned and moved: R M R^T within the two bars (a small fixed ladder: 3 levels x 2 offsets).
+    ladder = "levels = 3, offsets = 2, finest_bead_diameter = 0.125"
+    results = {}
+    for name in ("made", "turned"):
+        done = job(beadmob, mpiexec, ranks, workdir, name, f"{name}.obj", 0.125, ladder, "-quiet")
+        if done.returncode != 0:
+            sys.exit(f"the continuum job of the {name} mesh failed:\n{done.stdout}\n{done.stderr}")
+        with h5py.File(workdir / f"{name}.h5", "r") as f:
+            c = f["continuum"]
+            results[name] = (c["mobility"][()], c["mobility_error"][()])
+    (m, bar_m), (t, bar_t) = results["made"], results["turned"]
+    big = np.kron(np.eye(2), turn)   # R turns U and Omega alike (a proper rotation)
+    expected = big @ m @ big.T
+    # The bars turn with the entries: each turned entry is a sum over the unturned ones.
+    bar_turned = np.abs(big) @ bar_m @ np.abs(big).T
+    difference = np.abs(t - expected)
+    check(np.all(difference <= bar_turned + bar_t),
+          f"turned and moved: R M R^T within the two jobs' bars (largest |difference| / bars "
+          f"{np.max(difference / (bar_turned + bar_t)):.2f})")
+    check(np.max(np.abs(expected - m) / (bar_turned + bar_m)) > 1,
+          f"the turn matters: R M R^T differs from M beyond the bars (largest ratio "
+          f"{np.max(np.abs(expected - m) / (bar_turned + bar_m)):.1f})")
+
+    # 3. Too coarse for any level.
+    done = job(beadmob, mpiexec, ranks, workdir, "coarse", "made.obj", 3.0, "")
+    check(done.returncode != 0 and "bead(s) at its bead_diameter" in done.stdout + done.stderr
+          and not (workdir / "coarse.h5").exists(),
+          f"a bead_diameter too coarse is refused: {(done.stderr.strip().splitlines() or [''])[0]!r}")
+
+    if failures:
+        sys.exit(f"{len(failures)} check(s) failed")
+    print("check_continuum_mesh: all checks passed")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:5])
