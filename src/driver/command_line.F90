@@ -57,8 +57,8 @@ module beadmob_command_line
              'by its ranks); a job estimated above it is refused'), &
     option_t('accuracy', 'E', word, '(or --accuracy E) the cheapest settings that the benchmark data say reach a ' // &
              'relative error E of the mobility coefficients (bench/accuracy/accuracy.md)'), &
-    option_t('stop_after_solves', 'K', integer_number, 'stop with an error once K solves are saved (a test of ' // &
-             'checkpoint and resume)'), &
+    option_t('stop_after_solves', 'K', integer_number, 'stop with an error once K solves (a continuum job: K ' // &
+             'samples) are saved (a test of checkpoint and resume)'), &
     option_t('hdf5_error_stack', '', switch, 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
   !> Options written with two dashes that beadmob takes (--help, -h and --version are read first).
   character(len=*), parameter :: long_options(2) = [character(len=8) :: 'estimate', 'accuracy']
