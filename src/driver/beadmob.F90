@@ -1,5 +1,5 @@
 !> beadmob: Stokes mobility of rigid bead models.
-!> Usage: beadmob [input.nml] [PETSc options]   (mpirun -n P beadmob ... for P ranks)
+!> Usage: beadmob [options] [input.nml] [options]   (mpirun -n P beadmob ... for P ranks)
 program beadmob
 #include "petsc/finclude/petscsys.h"
   use petscsys
@@ -8,12 +8,13 @@ program beadmob
   use beadmob_parallel, only: run_context_t, make_run_context
   use beadmob_build_info, only: program_version, git_hash
   use beadmob_run, only: run_beadmob
-  use beadmob_command_line, only: print_usage, check_command_line, input_argument
+  use beadmob_command_line, only: print_usage, check_command_line, find_input_argument
   implicit none
   PetscErrorCode :: ierr
   type(run_context_t) :: ctx
   type(error_t) :: err
   character(len=64) :: first_argument
+  character(len=:), allocatable :: input_path
 
   first_argument = ''
   if (command_argument_count() >= 1) call get_command_argument(1, first_argument)
@@ -30,7 +31,8 @@ program beadmob
   ctx = make_run_context(PETSC_COMM_WORLD)
   ! The same arguments on every rank: the same verdict everywhere.
   call check_command_line(err)
-  if (.not. err%failed) call run_beadmob(ctx, input_argument(), err)
+  if (.not. err%failed) call find_input_argument(input_path, err)
+  if (.not. err%failed) call run_beadmob(ctx, input_path, err)
 
   if (err%failed .and. ctx%rank == 0) write (error_unit, '(a)') 'beadmob: error: ' // err%message
   PetscCallA(PetscFinalize(ierr))

@@ -13,7 +13,7 @@ module beadmob_command_line
   use beadmob_friction_settings, only: friction_settings_t
   implicit none
   private
-  public :: print_usage, check_command_line, read_command_line, warn_unused_options, input_argument
+  public :: print_usage, check_command_line, read_command_line, warn_unused_options, find_input_argument
 
 #if defined(PETSC_USE_64BIT_INDICES)
   integer, parameter :: c_petsc_int = c_int64_t
@@ -90,15 +90,15 @@ contains
 
   subroutine print_usage()
     integer :: k
-    write (*, '(a)') 'usage: beadmob [--estimate] [INPUT.nml] [options]', &
-      '       mpirun -n P beadmob [INPUT.nml] [options]', &
+    write (*, '(a)') 'usage: beadmob [options] [INPUT.nml] [options]', &
+      '       mpirun -n P beadmob [options] [INPUT.nml] [options]', &
       '', &
       'Builds the bead model described by INPUT.nml (Fortran namelists &run, &shape and, for the', &
       'friction and mobility, &hydrodynamics; see README.md) and writes the result file named by', &
       '&run output. Without INPUT.nml: the built-in default job, the paper''s cone and its mobility', &
       'at multipole order 2, written to beadmob_result.h5.', &
       '', &
-      'Options of beadmob (after INPUT.nml; a misspelt one is refused):'
+      'Options of beadmob (before or after INPUT.nml; a misspelt one is refused):'
     do k = 1, size(options)
       call print_option(options(k))
     end do
@@ -129,19 +129,110 @@ contains
     end do
   end subroutine print_option
 
-  !> The input file named on the command line ('' for none): the first argument, or the second
-  !> after --estimate, unless it is an option.
-  function input_argument() result(path)
-    character(len=:), allocatable :: path
+  !> Collective (the same arguments on every rank). The input file named on the command line
+  !> ('' for none): the one argument that is neither an option nor an option's value, wherever it
+  !> stands. beadmob's options take a value by their table (`switch` none); a PETSc option takes
+  !> the next word as its value unless that word ends in .nml or names an existing file (then it
+  !> is the input, and PETSc's record of it as the option's value is undone). Two such words are
+  !> an error naming both, before anything runs.
+  subroutine find_input_argument(path, err)
+    character(len=:), allocatable, intent(out) :: path
+    type(error_t), intent(inout) :: err
     character(len=4096) :: argument
-    argument = ''
-    if (command_argument_count() >= 1) then
-      call get_command_argument(1, argument)
-      if (argument == '--estimate' .and. command_argument_count() >= 2) call get_command_argument(2, argument)
-      if (argument(1:1) == '-') argument = ''
-    end if
-    path = trim(argument)
-  end function input_argument
+    character(len=:), allocatable :: previous_option
+    logical :: takes_value, value_given
+    integer :: k
+    PetscErrorCode :: ierr
+    path = ''
+    previous_option = ''
+    takes_value = .false.
+    do k = 1, command_argument_count()
+      call get_command_argument(k, argument)
+      if (is_option(argument)) then
+        call option_value_rule(trim(argument), takes_value, value_given)
+        if (value_given) takes_value = .false.
+        previous_option = option_name(trim(argument))
+        cycle
+      end if
+      if (takes_value) then
+        takes_value = .false.
+        if (.not. is_petsc_option(previous_option)) cycle
+        if (.not. looks_like_input(trim(argument))) cycle
+        ! A PETSc option followed by the input file: PETSc took the file for its value.
+        PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-' // previous_option, PETSC_NULL_CHARACTER, ierr))
+      end if
+      if (len(path) > 0) then
+        call raise(err, "two input files on the command line (or a stray word), '" // path // "' and '" // &
+                   trim(argument) // "': beadmob takes one input file; every other argument is an option or an " // &
+                   "option's value")
+        return
+      end if
+      path = trim(argument)
+    end do
+
+  contains
+
+    !> Whether `option` (without dashes) is PETSc's, i.e. not in beadmob's table.
+    logical function is_petsc_option(option)
+      character(len=*), intent(in) :: option
+      is_petsc_option = .not. (any(options%name == option) .or. any(long_options == option))
+    end function is_petsc_option
+
+    logical function looks_like_input(word)
+      character(len=*), intent(in) :: word
+      logical :: exists
+      integer :: n_word
+      n_word = len(word)
+      looks_like_input = .false.
+      if (n_word > 4) looks_like_input = lower(word(n_word - 3:)) == '.nml'
+      if (.not. looks_like_input) then
+        inquire (file=word, exist=exists)
+        looks_like_input = exists
+      end if
+    end function looks_like_input
+  end subroutine find_input_argument
+
+  !> An option is an argument that starts with '-' and is not a negative number.
+  pure logical function is_option(argument)
+    character(len=*), intent(in) :: argument
+    is_option = .false.
+    if (len_trim(argument) < 2) return
+    if (argument(1:1) /= '-') return
+    is_option = verify(argument(2:2), '0123456789.') /= 0
+  end function is_option
+
+  !> The option's name without its dashes and without an '=value' part.
+  pure function option_name(argument) result(name)
+    character(len=*), intent(in) :: argument
+    character(len=:), allocatable :: name
+    name = argument(merge(3, 2, argument(2:2) == '-'):)
+    if (index(name, '=') > 0) name = name(1:index(name, '=') - 1)
+  end function option_name
+
+  !> Whether the option `argument` takes the next argument as its value (beadmob's by their table;
+  !> any other, PETSc's, may) and whether it carries its value itself (--accuracy=E).
+  pure subroutine option_value_rule(argument, takes_value, value_given)
+    character(len=*), intent(in) :: argument
+    logical, intent(out) :: takes_value, value_given
+    character(len=:), allocatable :: name
+    integer :: k
+    name = option_name(argument)
+    value_given = index(argument, '=') > 0
+    takes_value = .true.
+    do k = 1, size(options)
+      if (options(k)%name == name) takes_value = options(k)%kind /= switch
+    end do
+  end subroutine option_value_rule
+
+  pure function lower(text) result(lowered)
+    character(len=*), intent(in) :: text
+    character(len=len(text)) :: lowered
+    integer :: k
+    lowered = text
+    do k = 1, len(text)
+      if (text(k:k) >= 'A' .and. text(k:k) <= 'Z') lowered(k:k) = achar(iachar(text(k:k)) + 32)
+    end do
+  end function lower
 
   !> Every argument that is an option but not one of beadmob's is PETSc's, unless it is so close
   !> to one of beadmob's that it is a misspelling of it: then an error that names both, before
@@ -150,16 +241,13 @@ contains
     type(error_t), intent(inout) :: err
     character(len=256) :: argument
     character(len=:), allocatable :: name
-    integer :: k, nearest, dashes
+    integer :: k, nearest
     do k = 1, command_argument_count()
       call get_command_argument(k, argument)
-      if (argument(1:1) /= '-' .or. len_trim(argument) < 2) cycle
-      if (verify(argument(2:2), '0123456789.') == 0) cycle   ! a negative number: an option's value
-      dashes = merge(2, 1, argument(2:2) == '-')
-      name = trim(argument(dashes + 1:))
-      if (index(name, '=') > 0) name = name(1:index(name, '=') - 1)
-      if (dashes == 2 .and. any(long_options == name)) cycle
-      if (dashes == 1 .and. any(options%name == name)) cycle
+      if (.not. is_option(argument)) cycle
+      name = option_name(trim(argument))
+      if (argument(2:2) == '-' .and. any(long_options == name)) cycle
+      if (argument(2:2) /= '-' .and. any(options%name == name)) cycle
       nearest = nearest_option(name)
       if (nearest > 0) then
         call raise(err, "unknown option '" // trim(argument) // "': did you mean -" // trim(options(nearest)%name) // &
