@@ -596,6 +596,7 @@ contains
     allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
     allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
+    allocate (result%sample_moments(13, n))
     do s = 1, n
       associate (p => samples(s), d => samples(s)%bead_diameter)
         result%sample_level(s) = p%level
@@ -607,6 +608,7 @@ contains
         result%sample_seconds(s) = p%seconds
         result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
         result%sample_friction(:, s) = reshape(p%friction, [36])
+        result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
         scale = [d, d, d, d**2, d**2, d**2]
         friction = p%friction * spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)

@@ -38,6 +38,9 @@ module beadmob_continuum_fit
     integer, allocatable :: sample_level(:), sample_beads(:), sample_iterations(:), sample_converged(:)
     real(dp), allocatable :: sample_offset(:, :), sample_residual(:), sample_seconds(:), sample_symmetry_error(:)
     real(dp), allocatable :: sample_friction(:, :), sample_mobility(:, :), sample_coefficients(:, :)
+    !> Per sample: the volume, first (3) and second (9, column-major) moments of its beads (shape
+    !> units: body_moments_t), from which its correction was made.
+    real(dp), allocatable :: sample_moments(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.
     real(dp), allocatable :: level_mobility(:, :), level_mobility_error(:, :)
     real(dp), allocatable :: level_coefficients(:, :), level_coefficient_error(:, :)

@@ -312,6 +312,7 @@ contains
     call write_replicated_dataset(ctx, group, 'sample_friction', c%sample_friction, err)
     call write_replicated_dataset(ctx, group, 'sample_mobility', c%sample_mobility, err)
     call write_replicated_dataset(ctx, group, 'sample_coefficients', c%sample_coefficients, err)
+    call write_replicated_dataset(ctx, group, 'sample_moments', c%sample_moments, err)
     call write_replicated_dataset(ctx, group, 'level_mobility', c%level_mobility, err)
     call write_replicated_dataset(ctx, group, 'level_mobility_error', c%level_mobility_error, err)
     call write_replicated_dataset(ctx, group, 'level_coefficients', c%level_coefficients, err)
