@@ -19,43 +19,22 @@ continuum job (&continuum, issue 25 items 3 and 4) against exact results, on 2 r
 Each table's wall times are this machine's (2 ranks); `estimated` is the job's own estimate of
 its ladder (the dry run's, calibrated by its pilot solve)."""
 import argparse
-import os
 import re
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+from continuum_jobs import ROOT, run, spheroid
+
 sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post.ellipsoid import ellipsoid_friction  # noqa: E402
 from beadmob_post.paper import TAB_MOB_NUM  # noqa: E402
 
-RANKS = 2
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
 BODIES = [("sphere", (1, 1, 1)), ("prolate 2:1", (2, 1, 1)), ("prolate 4:1", (4, 1, 1)),
           ("oblate 1:2", (1, 2, 2)), ("oblate 1:4", (1, 4, 4)), ("triaxial 3:2:1", (3, 2, 1))]
-
-
-def run(exe, text, workdir):
-    nml = Path(workdir) / "job.nml"
-    nml.write_text("&run output = 'job.h5', progress = .false. /\n" + text)
-    (Path(workdir) / "job.h5").unlink(missing_ok=True)
-    start = time.perf_counter()
-    done = subprocess.run(["mpiexec", "-n", str(RANKS), exe, str(nml)], cwd=workdir, env=ENV, capture_output=True,
-                          text=True)
-    if done.returncode != 0:
-        sys.exit(f"beadmob failed on\n{text}\n{done.stdout}\n{done.stderr}")
-    return Path(workdir) / "job.h5", time.perf_counter() - start
-
-
-def spheroid(semi_axes):
-    return ("&shape name = 'spheroid', semi_axes = " + ", ".join(f"{a:g}" for a in semi_axes) +
-            ", bead_diameter = 0.125 /\n&hydrodynamics /\n")
 
 
 def ellipsoid_rows(exe, budget, workdir):

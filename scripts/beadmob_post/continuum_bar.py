@@ -1,0 +1,153 @@
+"""The continuum job's value and error bar (docs/theory.md T18; src/hydro/continuum_fit.f90 and
+continuum_values in src/driver/continuum_job.f90) recomputed from its samples for any linear
+combination of the mobility entries, e.g. a diagonal entry in the principal frame of a body the
+job saw turned: e^T Q^T M Q e is linear in M, so each sample gives one number, and the level
+means, their standard errors, the weighted quadratic in h, the model spread and the volume term
+follow exactly as beadmob does them for one entry. With Q = 1 it reproduces the file's own
+mobility and mobility_error (bench/continuum/coverage.py checks this on every job it reads).
+
+Only the analysis is redone here; the estimator is beadmob's (not changed, not tuned)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+#: beadmob's floor on a level's standard error, as a fraction of the median level's (continuum_fit.f90).
+STANDARD_ERROR_FLOOR = 0.2
+
+
+@dataclass(frozen=True)
+class ContinuumSamples:
+    bead_diameters: np.ndarray    # (K,) coarsest first
+    sample_level: np.ndarray      # (S,) 1-based level of each sample
+    sample_mobility: np.ndarray   # (S, 6, 6) corrected, shape units, about the centroid, input axes
+    volume: float
+    volume_error: float           # the volume's standard error (absolute, from the moment fills)
+    mobility: np.ndarray          # (6, 6) the file's continuum mobility (symmetrised)
+    mobility_error: np.ndarray    # (6, 6) its error bar, [row, column] of the mobility
+
+
+@dataclass(frozen=True)
+class Extrapolation:
+    value: float            # intercept of the weighted quadratic over all levels
+    standard_error: float   # of that intercept (inflated by the reduced chi^2 when above 1)
+    linear_value: float     # the line through the three finest levels, at h = 0
+    reduced_value: float    # the quadratic without the coarsest level, at h = 0
+
+    @property
+    def model_spread(self) -> float:
+        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
+
+    @property
+    def fit_error(self) -> float:
+        """The error bar without the volume term: 2 sigma + the model spread."""
+        return 2.0 * self.standard_error + self.model_spread
+
+
+def read_samples(path: str | Path) -> ContinuumSamples:
+    """The samples and continuum values of a result file's /continuum group (docs/output.md)."""
+    with h5py.File(path, "r") as f:
+        c = f["continuum"]
+        levels = np.asarray(c.attrs["sample_level"]).reshape(-1).astype(int)
+        rows = np.asarray(c["sample_mobility"][()], dtype=float)
+        if rows.shape != (len(levels), 36):
+            rows = rows.T
+        # Fortran writes a (6, 6) array; h5py reads it transposed ([column, row]).
+        return ContinuumSamples(
+            bead_diameters=np.asarray(c["bead_diameters"][()], dtype=float), sample_level=levels,
+            sample_mobility=np.stack([row.reshape(6, 6, order="F") for row in rows]),
+            volume=float(c.attrs["volume"]), volume_error=float(c.attrs["volume_standard_error"]),
+            mobility=np.asarray(c["mobility"][()], dtype=float).T,
+            mobility_error=np.asarray(c["mobility_error"][()], dtype=float).T)
+
+
+def level_means(values: np.ndarray, sample_level: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each level's mean over its samples and that mean's standard error (sample standard deviation
+    / sqrt(n); 0 for a single sample), as continuum_fit.f90's level_mean."""
+    mean, error = np.zeros(levels), np.zeros(levels)
+    for k in range(levels):
+        x = values[sample_level == k + 1]
+        mean[k] = x.mean()
+        error[k] = np.sqrt(np.sum((x - mean[k]) ** 2) / (len(x) - 1) / len(x)) if len(x) > 1 else 0.0
+    return mean, error
+
+
+def _weighted_polynomial(x, y, w, degree):
+    basis = np.vander(x, degree + 1, increasing=True)
+    normal = basis.T @ (w[:, None] * basis)
+    inverse = np.linalg.inv(normal)
+    coefficients = inverse @ (basis.T @ (w * y))
+    chi2 = float(np.sum(w * (y - basis @ coefficients) ** 2))
+    return coefficients, float(inverse[0, 0]), chi2
+
+
+def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
+    """continuum_fit.f90's extrapolate_to_zero: weights 1 / max(se, a fifth of the median level's se,
+    1e-9 |mean|)^2; the quadratic over all levels (its intercept's variance times max(1, chi^2 /
+    (K - 3))), the line through the three finest levels and the quadratic without the coarsest."""
+    h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
+    n = len(h)
+    median = np.sort(standard_error)[(n + 1) // 2 - 1]
+    sigma = np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
+                               np.full(n, np.finfo(float).tiny)])
+    weights = 1.0 / sigma**2
+    coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
+    if n > 3:
+        variance *= max(1.0, chi2 / (n - 3))
+    order = np.argsort(h, kind="stable")
+    finest = order[:3]
+    linear = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1)[0][0]
+    reduced = coefficients[0]
+    if n > 3:
+        kept = order[: n - 1]
+        reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
+    return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced))
+
+
+def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
+    """(value, error bar, the fit) of sum_jk weights[j, k] M[j, k] by beadmob's estimator; `power`:
+    the combination scales as length^-power (1 translation, 2 coupling, 3 rotation), for the volume
+    term p / 3 * (the volume's relative standard error) * |value|."""
+    values = np.einsum("sjk,jk->s", samples.sample_mobility, np.asarray(weights, dtype=float))
+    mean, error = level_means(values, samples.sample_level, len(samples.bead_diameters))
+    fit = extrapolate(samples.bead_diameters, mean, error)
+    bar = fit.fit_error + abs(fit.value) * power / 3.0 * samples.volume_error / samples.volume
+    return fit.value, bar, fit
+
+
+def entry_power(row: int, column: int) -> int:
+    """p of the mobility entry [row, column] (0-based): 1 + (row is a rotation) + (column is one)."""
+    return 1 + int(row > 2) + int(column > 2)
+
+
+def principal_diagonal(samples: ContinuumSamples, rotation: np.ndarray):
+    """The six diagonal entries of Q^T M Q, Q = diag(R, R) (R: the body's principal axes as the
+    columns, in the input frame), each as (value, error bar, fit)."""
+    q = np.zeros((6, 6))
+    q[:3, :3] = q[3:, 3:] = np.asarray(rotation, dtype=float)
+    return [combination_bar(samples, np.outer(q[:, i], q[:, i]), entry_power(i, i)) for i in range(6)]
+
+
+def replay_discrepancy(samples: ContinuumSamples) -> float:
+    """Largest relative difference, over the 36 input-frame entries, between the error bar
+    recomputed here and the file's (and over the diagonal values): ~1e-12 when this module still
+    is beadmob's estimator."""
+    worst = 0.0
+    for row in range(6):
+        for column in range(6):
+            weights = np.zeros((6, 6))
+            weights[row, column] = 1.0
+            value, bar, _ = combination_bar(samples, weights, entry_power(row, column))
+            scale = max(abs(samples.mobility_error[row, column]), 1e-300)
+            worst = max(worst, abs(bar - samples.mobility_error[row, column]) / scale)
+            if row == column:
+                worst = max(worst, abs(value - samples.mobility[row, row]) / abs(samples.mobility[row, row]))
+    return worst
+
+
+__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "extrapolate", "combination_bar",
+           "entry_power", "principal_diagonal", "replay_discrepancy"]

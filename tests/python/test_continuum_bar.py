@@ -1,0 +1,114 @@
+"""beadmob_post.continuum_bar: the continuum job's estimator (docs/theory.md T18) replayed for a
+linear combination of mobility entries.
+
+- Level means on an exact straight line in h: the intercept is its constant, no spread, the bar
+  only the volume term p / 3 * (relative volume error) * |value|; on an exact quadratic the
+  intercept and the reduced fit are its constant and the spread is the line's miss.
+- Noisy levels: the intercept is numpy's least squares of beadmob_post.continuum.quadratic_fit
+  (an independent implementation of the same weights), the bar 2 sigma + spread + volume term.
+- A body seen turned: samples M_s = Q D_s Q^T; the principal diagonal replayed with Q equals the
+  replay of the unturned samples D_s entry by entry.
+- A real result file of the test suite (continuum_np2's sphere, when BEADMOB_TEST_OUTPUT_DIR
+  holds it): the replay reproduces the file's 36 error bars and its diagonal.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from beadmob_post.continuum import quadratic_fit
+from beadmob_post.continuum_bar import (combination_bar, entry_power, extrapolate, level_means, principal_diagonal,
+                                        read_samples, replay_discrepancy)
+
+H = 0.3 * 2.0 ** (-np.arange(7) / 3)
+
+
+def write_file(path, samples, levels, volume=4.0, volume_error=0.004):
+    """A /continuum group as beadmob writes it (Fortran (36, S) arrays read by h5py as (S, 36))."""
+    with h5py.File(path, "w") as f:
+        c = f.create_group("continuum")
+        c["bead_diameters"] = H
+        c.attrs["sample_level"] = np.asarray(levels, dtype=np.int32)
+        c["sample_mobility"] = np.stack([m.reshape(36, order="F") for m in samples])
+        c.attrs["volume"] = volume
+        c.attrs["volume_standard_error"] = volume_error
+        c["mobility"] = np.eye(6)
+        c["mobility_error"] = np.ones((6, 6))
+    return path
+
+
+def noisy_samples(rng, base, offsets=4):
+    samples, levels = [], []
+    for k, h in enumerate(H):
+        for _ in range(offsets):
+            noise = rng.normal(scale=2e-4, size=(6, 6))
+            samples.append(base * (1 + 0.3 * h - 0.5 * h**2) + noise + noise.T)
+            levels.append(k + 1)
+    return samples, np.array(levels)
+
+
+def test_exact_line_has_only_the_volume_term(tmp_path):
+    base = np.diag([0.05, 0.04, 0.03, 0.02, 0.015, 0.01])
+    samples = [base * (1 + 0.3 * h) for h in H for _ in range(3)]
+    levels = np.repeat(np.arange(1, 8), 3)
+    data = read_samples(write_file(tmp_path / "c.h5", samples, levels))
+    for i in range(6):
+        weights = np.zeros((6, 6))
+        weights[i, i] = 1
+        value, bar, fit = combination_bar(data, weights, entry_power(i, i))
+        assert value == pytest.approx(base[i, i], rel=1e-10)
+        assert fit.model_spread == pytest.approx(0, abs=1e-12 * base[i, i])
+        # (2 sigma: of the 1e-9 floor on the standard errors, ~1e-8 of the value)
+        assert bar == pytest.approx(entry_power(i, i) / 3 * 0.001 * base[i, i], abs=1e-8 * base[i, i])
+
+
+def test_exact_quadratic_spread_is_the_line(tmp_path):
+    mean = 0.05 * (1 + 0.3 * H - 0.5 * H**2)
+    fit = extrapolate(H, mean, np.full(7, 1e-5))
+    line = np.polyfit(H[-3:], mean[-3:], 1)[1]
+    assert fit.value == pytest.approx(0.05, rel=1e-10)
+    assert fit.reduced_value == pytest.approx(0.05, rel=1e-10)
+    assert fit.model_spread == pytest.approx(abs(line - 0.05), rel=1e-8)
+
+
+def test_noisy_levels_match_numpy_refit():
+    rng = np.random.default_rng(1)
+    mean = 0.05 * (1 + 0.3 * H - 0.5 * H**2) + rng.normal(scale=1e-4, size=7)
+    error = rng.uniform(2e-5, 1e-4, size=7)
+    error[3] = 1e-7                          # below the floor: counts as a fifth of the median
+    fit = extrapolate(H, mean, error)
+    assert fit.value == pytest.approx(quadratic_fit(H, mean, error)[0], rel=1e-10)
+    assert fit.fit_error == pytest.approx(2 * fit.standard_error + fit.model_spread)
+    assert fit.standard_error > 0 and fit.model_spread > 0
+
+
+def test_level_means():
+    mean, error = level_means(np.array([1.0, 3.0, 5.0, 2.0]), np.array([1, 1, 2, 2]), 2)
+    assert mean == pytest.approx([2.0, 3.5])
+    assert error == pytest.approx([1.0, 1.5])
+
+
+def test_turned_body_replays_its_principal_entries(tmp_path):
+    rng = np.random.default_rng(7)
+    base = np.diag([0.05, 0.04, 0.03, 0.02, 0.015, 0.01])
+    principal, levels = noisy_samples(rng, base)
+    turn, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = np.zeros((6, 6))
+    q[:3, :3] = q[3:, 3:] = turn
+    plain = read_samples(write_file(tmp_path / "plain.h5", principal, levels))
+    turned = read_samples(write_file(tmp_path / "turned.h5", [q @ m @ q.T for m in principal], levels))
+    for i, (value, bar, _) in enumerate(principal_diagonal(turned, turn)):
+        weights = np.zeros((6, 6))
+        weights[i, i] = 1
+        expected_value, expected_bar, _ = combination_bar(plain, weights, entry_power(i, i))
+        assert value == pytest.approx(expected_value, rel=1e-12)
+        assert bar == pytest.approx(expected_bar, rel=1e-8)
+
+
+def test_real_continuum_file(beadmob_output_dir):
+    path = beadmob_output_dir / "continuum" / "sphere.h5"
+    if not path.exists():
+        pytest.skip(f"{path} not written (CTest continuum_np2 runs before pytest)")
+    assert replay_discrepancy(read_samples(path)) < 1e-8
