@@ -1,4 +1,4 @@
-"""Exact Stokes friction of a rigid ellipsoid (the continuum reference of issue 25).
+"""Exact Stokes friction of a rigid ellipsoid (the continuum reference of docs/theory.md T18).
 
 For semi-axes a_1, a_2, a_3 along the body axes and viscosity eta, with
 Delta(l) = sqrt((a_1^2 + l)(a_2^2 + l)(a_3^2 + l)) and the integrals

@@ -1,4 +1,4 @@
-!> Progress lines of a long run (issue 13, item 5): rank 0 prints one line when a phase of the
+!> Progress lines of a long run: rank 0 prints one line when a phase of the
 !> friction job starts and one per Krylov solve, each flushed at once so that a batch job's log
 !> shows where the run is while it runs. Whether to print is passed in by the caller (&run
 !> progress and -quiet, friction_job.F90): no state is kept here.

@@ -1,4 +1,4 @@
-!> The checkpoint of a friction job (issue 13, item 4: nothing lost at a wall-time limit): every
+!> The checkpoint of a friction job (nothing lost at a wall-time limit): every
 !> Krylov solution q of a rigid motion, saved as soon as its solve has finished, so that a job
 !> killed by a batch system resumes from the motions it has already solved. One HDF5 file next to
 !> the result, '<output>.checkpoint.h5', written collectively with parallel HDF5:

@@ -70,7 +70,7 @@ module beadmob_input_config
     real(dp) :: overlap_tolerance = 1.0e-6_dp
     !> Rank 0 prints a progress line per phase and per Krylov solve (-quiet silences it too).
     logical :: progress = .true.
-    !> Save each solved motion to '<output>.checkpoint.h5' and resume from it (issue 13, item 4).
+    !> Save each solved motion to '<output>.checkpoint.h5' and resume from it.
     logical :: checkpoint = .true.
     type(shape_config_t) :: shape
     !> The &hydrodynamics group: the friction job's settings (its command-line part is filled by

@@ -1,4 +1,4 @@
-!> A file cache of the expensive tables of a friction job (issue 5, item 5): the two-bead blocks of
+!> A file cache of the expensive tables of a friction job (docs/input.md, "Table cache"): the two-bead blocks of
 !> canonical lattice displacements (block_table.f90) and the rigid-doublet lubrication corrections
 !> per pair distance (lubrication.f90). They depend on the multipole truncation and the formulas
 !> only, never on the body, so a run takes every entry an earlier run computed and adds the ones

@@ -1,5 +1,5 @@
 !> A coarse space for the CG solves of the motions: deflation by the preconditioned right-hand
-!> sides (issue 24, "fewer iterations"; theory.md T11, "Deflation by the right-hand sides").
+!> sides (theory.md T11, "Deflation by the right-hand sides").
 !>
 !> The iterations of a rigid-motion solve are spent on the collective modes of the body, the
 !> large eigenvalues of B A (T11), and the six right-hand sides of one body excite the same ones.

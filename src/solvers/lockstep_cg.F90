@@ -1,5 +1,5 @@
-!> Preconditioned CG on several systems A x_j = b_j at once (issue 24, "all motions at once";
-!> theory.md T6). Each system keeps its own Krylov space, so its iterates are those PETSc's KSPCG
+!> Preconditioned CG on several systems A x_j = b_j at once (theory.md T6, "All motions
+!> at once"). Each system keeps its own Krylov space, so its iterates are those PETSc's KSPCG
 !> makes when it solves the systems one at a time: the same recurrences, the preconditioned
 !> residual norm ||B r|| and KSPConvergedDefault's test (relative to ||B b||, absolute and
 !> divergence tolerances, the iteration limit), the same KSPConvergedReason codes and the same

@@ -1,4 +1,4 @@
-"""check_mesh_shapes.py BEADMOB MPIEXEC RANKS WORKDIR: triangle meshes as geometry (issue 25, item 2;
+"""check_mesh_shapes.py BEADMOB MPIEXEC RANKS WORKDIR: triangle meshes as geometry (docs/input.md, "Meshes";
 src/geometry/triangle_mesh.f90).
 
 1. Fine meshes of an ellipsoid (semi-axes 7.3, 5.2, 3.6 mesh units), a sphere (radius 6.1) and a

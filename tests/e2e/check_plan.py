@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """check_plan.py BEADMOB MPIEXEC RANKS WORKDIR INPUT...: the dry run and the job follow one plan
-(issue 23, item 2; src/solvers/job_plan.f90).
+(src/solvers/job_plan.f90).
 
 For each input: `beadmob --estimate INPUT` prints the plan (beads in the solve, operator, solves
 after symmetries, memory per rank, wall time); the job itself, on the same ranks, records the

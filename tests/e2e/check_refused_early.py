@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """check_refused_early.py BEADMOB MPIEXEC RANKS WORKDIR CASE: a run whose output cannot be
-written is refused before anything is built (issue 22, item 2).
+written is refused before anything is built.
 
 CASE names where the result file would go:
   missing_dir   WORKDIR/no_such_directory/out.h5

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""check_resume.py: the checkpoint and resume of a friction job (issue 13, item 4), end to end.
+"""check_resume.py: the checkpoint and resume of a friction job (docs/input.md, "Checkpoints and progress"), end to end.
 
     check_resume.py WORKDIR INPUT CHANGED_INPUT STOP_RANKS RESUME_RANKS MPIEXEC NUMPROC_FLAG BEADMOB
 

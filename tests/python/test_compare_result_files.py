@@ -1,6 +1,6 @@
 """tests/e2e/compare_result_files.py (the comparison of two runs of one job) can fail: a friction
 moved beyond the file's own solver error bound, or one exact item changed, is a difference;
-a move within the bound is not (issue 22, item 1)."""
+a move within the bound is not (docs/theory.md T5, "Solver error bound")."""
 
 from __future__ import annotations
 

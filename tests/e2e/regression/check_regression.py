@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Regression guard (issue 7): compare a result file with the committed reference values.
+"""Regression guard: compare a result file with the committed reference values.
 
     check_regression.py CASE RESULT.h5      fails if the friction (with and without the lubrication
                                             correction) or the paper coefficients moved by more

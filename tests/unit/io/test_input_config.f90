@@ -78,7 +78,7 @@ contains
     call check(suite, err%failed, 'non-numeric value rejected')
   end subroutine test_errors
 
-  !> &run progress and checkpoint (issue 13): defaults, values, the numbers-only effective text
+  !> &run progress and checkpoint: defaults, values, the numbers-only effective text
   !> (the checkpoint key must not change with them) and bad values named with their line.
   subroutine test_run_switches()
     type(run_config_t) :: config, second
@@ -125,7 +125,7 @@ contains
     call check(suite, config%hydrodynamics%error_estimate_given .and. .not. config%hydrodynamics%error_estimate, &
                'error_estimate = .false.: given, off')
   end subroutine test_error_estimate_switch
-  !> Issue 23, item 3: the input's &hydrodynamics group fills the job's settings type itself, so
+  !> The input's &hydrodynamics group fills the job's settings type itself, so
   !> an empty group must leave every setting at the type's own default (the library's), apart
   !> from what the group's presence means (enabled) and what the reader resolves by a stated rule
   !> (potential_order = max(L - 2, 0), theory.md T3). A default declared a second time in the

@@ -1,7 +1,7 @@
 !> Tests src/io/table_cache.f90; also the cache keys of src/operators/block_table.f90 and
 !> src/lubrication/lubrication.f90, through the friction job (src/solvers/friction_job.F90).
 !> CTest: test_table_cache_np1 and test_table_cache_np2 (the program keeps the test's name, test_table_cache).
-!> The HDF5 table cache of the lattice blocks and the lubrication corrections (issue 5, item 5):
+!> The HDF5 table cache of the lattice blocks and the lubrication corrections (docs/input.md, "Table cache"):
 !>  - a run that fills the cache and a run that reads it give the friction of an uncached run to
 !>    the last bit (direct operator: no FFTW planner in the way);
 !>  - a larger body reuses a smaller one's blocks and computes only the missing ones;

@@ -1,7 +1,7 @@
 !> Tests src/operators/pfft_operator.F90; also src/multipole/axial_table.f90 and
 !> src/multipole/harmonic_rotation.f90 (items 1 and 2 below), and the friction job off the lattice.
 !> CTest: test_offlattice_np1 and test_offlattice_np2 (the program keeps the test's name, test_offlattice).
-!> Off-lattice bead models (issue 14; theory.md T15, T16):
+!> Off-lattice bead models (theory.md T15, T16):
 !>  1. Pair blocks from the axial table turned to the pair (axial_table.f90) equal the direct
 !>     quadrature of the Galerkin integral (pair_blocks.f90, an independent evaluation) at random
 !>     distances and directions to 1e-12 of the block's largest entry, L = 1 .. 5 (measured 2e-15).
