@@ -15,7 +15,7 @@ module beadmob_triangle_mesh
   use, intrinsic :: iso_fortran_env, only: int16, int32, real32
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str
+  use beadmob_strings, only: str, str_significant
   use beadmob_spatial_index, only: sort_keys, lower_bound
   use beadmob_lattice_fill, only: reserve_sites, lattice_shift
   implicit none
@@ -111,7 +111,7 @@ contains
     character(len=*), intent(in) :: path
     real(dp), allocatable, intent(out) :: corners(:, :)
     type(error_t), intent(inout) :: err
-    character(len=512) :: line
+    character(len=:), allocatable :: line
     character(len=16) :: keyword
     real(dp), allocatable :: buffer(:, :)
     integer :: unit, stat, n, line_number
@@ -121,7 +121,7 @@ contains
     n = 0
     line_number = 0
     do while (next_line(unit, line, line_number))
-      if (lower_case(line(1:7)) /= 'vertex ') cycle
+      if (lower_case(line(1:min(7, len(line)))) /= 'vertex ') cycle
       if (n == size(buffer, 2)) buffer = reshape(buffer, [3, 2 * n], pad=[0.0_dp])
       n = n + 1
       read (line, *, iostat=stat) keyword, buffer(:, n)
@@ -141,15 +141,15 @@ contains
   end subroutine read_ascii_stl
 
   !> OBJ: `v x y z` vertices and `f a b c ...` faces (indices from 1, negative from the end,
-  !> `a/t/n` forms; polygons split into a fan of triangles). Other lines are ignored.
+  !> `a/t/n` forms; polygons of any number of corners, split into a fan of triangles). Other lines
+  !> (vt, vn, o, g, s, usemtl, mtllib, comments) are ignored.
   subroutine read_obj(path, mesh, err)
     character(len=*), intent(in) :: path
     type(triangle_mesh_t), intent(out) :: mesh
     type(error_t), intent(inout) :: err
-    character(len=1024) :: line
-    character(len=64) :: tokens(64)
+    character(len=:), allocatable :: line, token
     real(dp), allocatable :: vertices(:, :)
-    integer, allocatable :: triangles(:, :), face(:)
+    integer, allocatable :: triangles(:, :), face(:), starts(:), ends(:)
     integer :: unit, stat, n_vertices, n_triangles, line_number, n_tokens, k, slash, value
     real(dp), allocatable :: corners(:, :)
     call open_text(path, unit, err)
@@ -159,7 +159,7 @@ contains
     n_triangles = 0
     line_number = 0
     do while (next_line(unit, line, line_number))
-      if (line(1:2) == 'v ') then
+      if (line(1:min(2, len(line))) == 'v ') then
         if (n_vertices == size(vertices, 2)) vertices = reshape(vertices, [3, 2 * n_vertices], pad=[0.0_dp])
         n_vertices = n_vertices + 1
         read (line(3:), *, iostat=stat) vertices(:, n_vertices)
@@ -167,20 +167,22 @@ contains
           call fail('not a vertex')
           return
         end if
-      else if (line(1:2) == 'f ') then
-        call split(line(3:), tokens, n_tokens)
+      else if (line(1:min(2, len(line))) == 'f ') then
+        call split(line(3:), starts, ends)
+        n_tokens = size(starts)
         if (n_tokens < 3) then
           call fail('a face needs three vertices')
           return
         end if
         allocate (face(n_tokens))
         do k = 1, n_tokens
-          slash = index(tokens(k), '/')
-          if (slash > 0) tokens(k) = tokens(k)(1:slash - 1)
-          read (tokens(k), *, iostat=stat) value
+          token = line(2 + starts(k):2 + ends(k))
+          slash = index(token, '/')
+          if (slash > 0) token = token(1:slash - 1)
+          read (token, *, iostat=stat) value
           if (stat == 0 .and. value < 0) value = n_vertices + 1 + value
           if (stat /= 0 .or. value < 1 .or. value > n_vertices) then
-            call fail("vertex index '" // trim(tokens(k)) // "' is not one of the " // str(n_vertices) // &
+            call fail("vertex index '" // token // "' is not one of the " // str(n_vertices) // &
                       ' vertices read so far')
             return
           end if
@@ -222,39 +224,58 @@ contains
     if (stat /= 0) call raise(err, "mesh file '" // path // "' cannot be opened")
   end subroutine open_text
 
-  !> The next line of `unit`, left-adjusted, and its number; .false. at the end of the file.
+  !> The next line of `unit`, whole (an OBJ face of many corners can be kilobytes long), with tabs
+  !> and the carriage return of CRLF line ends as blanks (tab-indented and Windows files), trimmed
+  !> and left-adjusted; and its number. .false. at the end of the file.
   logical function next_line(unit, line, line_number)
     integer, intent(in) :: unit
-    character(len=*), intent(out) :: line
+    character(len=:), allocatable, intent(out) :: line
     integer, intent(inout) :: line_number
-    integer :: stat
-    read (unit, '(a)', iostat=stat) line
-    next_line = stat == 0
+    character(len=1024) :: chunk
+    integer :: stat, length, k
+    line = ''
+    do   ! the line in chunks, until its end (iostat_eor) or the file's
+      read (unit, '(a)', advance='no', iostat=stat, size=length) chunk
+      line = line // chunk(1:length)
+      if (stat /= 0) exit
+    end do
+    ! the last line without a line end still counts
+    next_line = is_iostat_eor(stat) .or. (is_iostat_end(stat) .and. len(line) > 0)
     if (.not. next_line) return
     line_number = line_number + 1
-    line = adjustl(line)
+    do k = 1, len(line)
+      if (line(k:k) == achar(9) .or. line(k:k) == achar(13)) line(k:k) = ' '
+    end do
+    line = trim(adjustl(line))
   end function next_line
 
-  !> Whitespace-separated tokens of `text`.
-  subroutine split(text, tokens, n)
+  !> The blank-separated tokens of `text` (next_line made tabs blanks): token k is
+  !> text(starts(k):ends(k)), as many as there are.
+  subroutine split(text, starts, ends)
     character(len=*), intent(in) :: text
-    character(len=*), intent(out) :: tokens(:)
-    integer, intent(out) :: n
-    integer :: i, start
-    n = 0
-    i = 1
-    do while (i <= len_trim(text) .and. n < size(tokens))
-      if (text(i:i) == ' ' .or. text(i:i) == achar(9)) then
-        i = i + 1
-        cycle
-      end if
-      start = i
-      do while (i <= len_trim(text))
-        if (text(i:i) == ' ' .or. text(i:i) == achar(9)) exit
-        i = i + 1
+    integer, allocatable, intent(out) :: starts(:), ends(:)
+    integer :: i, n, pass
+    allocate (starts(0), ends(0))
+    do pass = 1, 2   ! count, then record
+      n = 0
+      i = 1
+      do while (i <= len(text))
+        if (text(i:i) == ' ') then
+          i = i + 1
+          cycle
+        end if
+        n = n + 1
+        if (pass == 2) starts(n) = i
+        do while (i <= len(text))
+          if (text(i:i) == ' ') exit
+          i = i + 1
+        end do
+        if (pass == 2) ends(n) = i - 1
       end do
-      n = n + 1
-      tokens(n) = text(start:i - 1)
+      if (pass == 1) then
+        deallocate (starts, ends)
+        allocate (starts(n), ends(n))
+      end if
     end do
   end subroutine split
 
@@ -321,13 +342,16 @@ contains
     type(error_t), intent(inout) :: err
     integer(i8), allocatable :: edges(:), owner(:)
     integer(i8) :: n, e, reverse, found
-    integer :: t, k, a, b
+    integer :: t, k, a, b, digits
     n = size(mesh%vertices, 2)
     do t = 1, size(mesh%triangles, 2)
       associate (v => mesh%triangles(:, t))
         if (v(1) == v(2) .or. v(2) == v(3) .or. v(3) == v(1)) then
+          ! the repeated corner, in digits that tell it from the third (the triangle's size)
+          a = merge(v(1), v(2), v(1) == v(2) .or. v(1) == v(3))
+          b = merge(v(3), merge(v(2), v(1), a == v(1)), v(1) == v(2))
           call raise(err, "mesh file '" // path // "': triangle " // str(t) // ' has two equal corners at ' // &
-                     point_text(mesh%vertices(:, merge(v(1), v(2), v(1) == v(2) .or. v(1) == v(3)))))
+                     point_text(mesh%vertices(:, a), digits_apart(mesh%vertices(:, a), mesh%vertices(:, b))))
           return
         end if
       end associate
@@ -348,9 +372,10 @@ contains
       if (edges(e) /= edges(e - 1)) cycle
       a = int(edges(e) / n) + 1
       b = int(mod(edges(e), n)) + 1
-      call raise(err, "mesh file '" // path // "': the edge from " // point_text(mesh%vertices(:, a)) // &
-                 ' to ' // point_text(mesh%vertices(:, b)) // ' is used in the same direction by triangles ' // &
-                 str(owner(e - 1)) // ' and ' // str(owner(e)) // &
+      digits = digits_apart(mesh%vertices(:, a), mesh%vertices(:, b))
+      call raise(err, "mesh file '" // path // "': the edge from " // point_text(mesh%vertices(:, a), digits) // &
+                 ' to ' // point_text(mesh%vertices(:, b), digits) // &
+                 ' is used in the same direction by triangles ' // str(owner(e - 1)) // ' and ' // str(owner(e)) // &
                  ' (more than two triangles at an edge, or triangles oriented inconsistently)')
       return
     end do
@@ -364,19 +389,40 @@ contains
         if (edges(found) /= reverse) found = 0
       end if
       if (found == 0) then
+        digits = digits_apart(mesh%vertices(:, a), mesh%vertices(:, b))
         call raise(err, "mesh file '" // path // "' is not closed: the edge from " // &
-                   point_text(mesh%vertices(:, a)) // ' to ' // point_text(mesh%vertices(:, b)) // ' of triangle ' // &
-                   str(owner(e)) // ' has no triangle on its other side (or that one is oriented the other way)')
+                   point_text(mesh%vertices(:, a), digits) // ' to ' // point_text(mesh%vertices(:, b), digits) // &
+                   ' of triangle ' // str(owner(e)) // &
+                   ' has no triangle on its other side (or that one is oriented the other way)')
         return
       end if
     end do
   end subroutine check_closed_mesh
 
-  function point_text(p) result(text)
+  !> A point in messages, "(0.08725, 0.4459, 0.5068)": `digits` significant digits (from digits_apart).
+  function point_text(p, digits) result(text)
     real(dp), intent(in) :: p(3)
+    integer, intent(in) :: digits
     character(len=:), allocatable :: text
-    text = '(' // str(p(1)) // ', ' // str(p(2)) // ', ' // str(p(3)) // ')'
+    text = '(' // str_significant(p(1), digits) // ', ' // str_significant(p(2), digits) // ', ' // &
+           str_significant(p(3), digits) // ')'
   end function point_text
+
+  !> The significant digits for coordinates in messages: 4, readable and enough to find the place,
+  !> or more where 4 would print the two points p and q of a message (an edge's ends; a coordinate
+  !> and its neighbouring lattice line) alike: close points far from the origin, say 1000.05 and
+  !> 1000.1. 17 at most, which tell any two doubles apart.
+  function digits_apart(p, q) result(digits)
+    real(dp), intent(in) :: p(:), q(:)
+    integer :: digits
+    integer :: k
+    do digits = 4, 17
+      do k = 1, size(p)
+        if (str_significant(p(k), digits) /= str_significant(q(k), digits)) return
+      end do
+    end do
+    digits = 4   ! equal points: no digits tell them apart
+  end function digits_apart
 
   !> The lattice nodes inside the mesh scaled by `scale` (mesh units -> d), in the order x
   !> fastest, then y, then z (the order of the analytic shapes), by the winding numbers of the
@@ -393,7 +439,7 @@ contains
     integer, allocatable :: column_start(:), column_triangles(:), crossing_sign(:), fill(:)
     integer(i8), allocatable :: keys(:), order(:)
     integer :: lower(3), upper(3), width(2), t, i, j, k, column, n_columns, n_crossings, c, winding, count, slot
-    real(dp) :: low(2), high(2), ray(2), w(3), z
+    real(dp) :: low(2), high(2), ray(2), w(3), z, line_xy(2)
     real(dp) :: shift(3)
     shift = lattice_shift(offset)
     ! The mesh moved by -offset and filled at the integer nodes, which then move back by +offset.
@@ -463,8 +509,12 @@ contains
         if (n_crossings == 0) cycle
         call sort_crossings()
         if (sum(crossing_sign(1:n_crossings)) /= 0) then
+          ! the column's position in the file, in digits that tell it from the next column
+          line_xy = [(i + shift(1)) / scale, (j + shift(2)) / scale]
           call raise(err, "mesh file '" // path // "': the surface is not watertight where the line x = " // &
-                     str(i / scale) // ', y = ' // str(j / scale) // ' (file units) crosses it: ' // &
+                     str_significant(line_xy(1), digits_apart(line_xy(1:1), line_xy(1:1) + 1 / scale)) // &
+                     ', y = ' // str_significant(line_xy(2), digits_apart(line_xy(2:2), line_xy(2:2) + 1 / scale)) // &
+                     ' (file units) crosses it: ' // &
                      str(n_crossings) // ' crossings that do not pair into entries and exits ' // &
                      '(a hole, or intersecting parts)')
           return
