@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Run time against error (issue 7): every accuracy knob of beadmob on the paper shapes and a
+"""Run time against error: every accuracy knob of beadmob on the paper shapes and a
 filled sphere, each setting's error taken against a reference run with the tightest settings that
 fit (stated in the output).
 

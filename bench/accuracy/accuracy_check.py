@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Does --accuracy keep its promise? (issue 7, "Done when"). For each shape and target, runs
+"""Does --accuracy keep its promise? (docs/accuracy.md, "Accuracy target"). For each shape and target, runs
 beadmob --accuracy TARGET (with and without the lubrication correction) and compares the
 coefficients it reports with the shape's reference run of bench/accuracy/accuracy.py (same error
 measure). The torus and the spheroid are not in the tuning data of the rule.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue "run time against error", every benchmark in one command (bench/README.md): run time
+# Run time against error, every benchmark in one command (bench/README.md): run time
 # against error on the paper shapes and a sphere, the --accuracy rule made from it and built in,
 # its check on shapes in and out of the tuning data, the L = 4 check of the reference, the
 # convergence in L on small bodies, the bead model's resolution, what each skip saves, and the

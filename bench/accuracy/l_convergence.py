@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Convergence in the multipole order L on small bodies, with and without the lubrication
-correction (issue 7; the settlers paper: lubrication speeds up the convergence in L). Small
+correction (the settlers paper: lubrication speeds up the convergence in L). Small
 bodies allow high orders: L = 1..6 against L = 8, -ksp_rtol 1e-10 (solver error far below).
 
     python3 bench/accuracy/l_convergence.py [--exe build/beadmob]

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """ellipsoids.py [--exe BUILD/beadmob] [--sizes 3,4,5]: lattice ellipsoids against the exact
-ellipsoid (issue 25, item 4: which continuum body a bead model stands for).
+ellipsoid (which continuum body a bead model stands for; docs/input.md, "Physical units").
 
-Bodies of issue 25: a sphere, prolate 2:1 and 4:1, oblate 1:2 and 1:4, and a triaxial 3:2:1
+Bodies: a sphere, prolate 2:1 and 4:1, oblate 1:2 and 1:4, and a triaxial 3:2:1
 ellipsoid, each with smallest semi-axis s (in bead diameters d) for every s of --sizes, built by
 beadmob's `spheroid` shape (the lattice points inside the ellipsoid with those semi-axes), run with
 the default settings on 2 ranks. Each run's translational and rotational friction (the diagonal of

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The error bar of a run (issue 15): how well a run's own truncation-error estimate (its order-L
+"""The error bar of a run: how well a run's own truncation-error estimate (its order-L
 result against the companion solve of order L - 1 on the same beads, docs/theory.md T14) bounds
 its true error, and whether the extrapolated value is closer to the truth than the order-L one.
 

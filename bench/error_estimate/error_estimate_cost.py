@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What the error bar costs (issue 15: at most 1.3x the run without it): whole beadmob runs with
+"""What the error bar costs (target: at most 1.3x the run without it): whole beadmob runs with
 the default settings, with and without `&hydrodynamics error_estimate`, on 2 ranks, side by side.
 
     python3 bench/error_estimate/error_estimate_cost.py [--pairs 3] [--shapes cone,...] [--exe build/beadmob]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Lubrication cutoff study (issue "multipole core"): the paper-class small cone at L = 2 with the
+# Lubrication cutoff study: the paper-class small cone at L = 2 with the
 # lubrication correction applied to pairs up to a cutoff distance, against references at higher L.
 # Writes bench/lubrication_cutoff/lubrication_cutoff.md. Needs a build (scripts/build.sh); about a minute on 2 cores.
 set -euo pipefail

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""High multipole order on a few beads (issue 14): the dense operator (docs/theory.md T17) beside
+"""High multipole order on a few beads: the dense operator (docs/theory.md T17) beside
 the Krylov path (the direct and, on the lattice, the FFT operator), side by side in one run:
 each repetition runs every operator of a case in turn, and the table gives medians over the
 repetitions of the friction job's wall time (the result file's phase 'total') and of the whole

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""pygrpy beside beadmob (issue 14, bench/offlattice/offlattice.md): the RPY rigid-body mobility of a bead model.
+"""pygrpy beside beadmob (bench/offlattice/offlattice.md): the RPY rigid-body mobility of a bead model.
 
 The Rotne-Prager-Yamakawa (RPY) approximation (Rotne & Prager, J. Chem. Phys. 50, 4831 (1969);
 Yamakawa, J. Chem. Phys. 53, 436 (1970); rotational blocks: Wajnryb, Mizerski, Zuk & Szymczak,

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Where the precorrected FFT becomes the cheaper off-lattice operator (issue 14: `auto` picks pfft
-"when it is the cheaper"): writes bench/offlattice/pfft_crossover.md.
+"""Where the precorrected FFT becomes the cheaper off-lattice operator (`auto` picks pfft
+when it is the cheaper): writes bench/offlattice/pfft_crossover.md.
 
 Off-lattice models of bench/offlattice/offlattice.py (jittered lattice balls and beads on a sphere's surface)
 from 100 to 1500 beads, each run with `-operator direct` (exact blocks from the axial table,

@@ -1,5 +1,5 @@
 !> operator_check: the FFT operator (src/operators/fft_operator.F90) against the direct operator
-!> (bead_operator.F90) on a real bead model (issue 5). Reads a beadmob input file, builds the
+!> (bead_operator.F90) on a real bead model. Reads a beadmob input file, builds the
 !> model and the basis (L, L2 from &hydrodynamics, else L = 2, L2 = 0), both operators, applies
 !> both to 3 random vectors and prints the max-norm relative difference of each product and the
 !> set-up and median product wall times (max over ranks). Exits with status 1 when a difference
@@ -69,7 +69,7 @@ program operator_check
   repeats = 1
   PetscCallA(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-repeats', repeats_option, found, ierr))
   if (found) repeats = max(1, int(repeats_option))
-  ! -tolerance: only to exercise the failure exit (default 1e-12, the issue's bound).
+  ! -tolerance: only to exercise the failure exit (default 1e-12, the check's bound).
   PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-tolerance', tolerance_option, found, ierr))
   if (found) tolerance = tolerance_option
 

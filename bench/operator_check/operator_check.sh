@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 5: the FFT operator against the direct operator on the seven paper shapes (shapes/*.nml,
+# The FFT operator against the direct operator on the seven paper shapes (shapes/*.nml,
 # L = 2) on 1 and 2 ranks, with bench/operator_check/operator_check.F90. Writes bench/operator_check/operator_check.md; exits
 # non-zero when a run fails (a difference above 1e-12 included), after writing the table.
 # Needs a Release build (scripts/build.sh; BUILD_DIR selects it). OPCHECK_SHAPES, OPCHECK_RANKS and

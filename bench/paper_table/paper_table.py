@@ -24,7 +24,7 @@ def fmt(values):
 
 
 def misses(ours, paper):
-    """Targets of the issue: mu11..mu33 within 1 %, mu42 and mu51 within 3 % or 0.003 absolute."""
+    """Targets: mu11..mu33 within 1 %, mu42 and mu51 within 3 % or 0.003 absolute."""
     out = []
     for k, (a, b) in enumerate(zip(ours, paper)):
         ok = abs(a - b) <= 0.01 * abs(b) if k < 3 else (abs(a - b) <= 0.03 * abs(b) or abs(a - b) <= 0.003)

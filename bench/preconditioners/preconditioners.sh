@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Krylov iterations per solve against N for each preconditioner (issue "fast operator"): filled
+# Krylov iterations per solve against N for each preconditioner: filled
 # lattice spheres of about 1e3, 1e4 and 3e4 beads (and the paper cone) at L = 2, 2 ranks, CG at the
 # default tolerance, with
 #   none        -pc_type none

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Convergence of the bead model itself (issue 7): the same body resolved with more beads,
+"""Convergence of the bead model itself: the same body resolved with more beads,
 L/d = 11, 21, 31, 41 bead diameters across, at multipole order 2 (-ksp_rtol 1e-4: solver error
 ~1e-6, bench/accuracy/solver_tolerance.md), with and without the lubrication correction.
 

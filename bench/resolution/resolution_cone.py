@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The paper's cone resolved from L/d = 21 to 101 bead diameters across (issue "memory that
-distributes": up to ~6e5 beads on 2 ranks), at the default settings (multipole order 2, one surface
+"""The paper's cone resolved from L/d = 21 to 101 bead diameters across (up to ~6e5
+beads on 2 ranks), at the default settings (multipole order 2, one surface
 layer, symmetry-derived motions, CG tolerance 1e-3, no lubrication correction), and its coefficients
 extrapolated to the continuum cone, the limit the paper approached by "decreasing the bead diameter
 until saturation".

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Scaling study (issues "fast operator" and "memory that distributes"): filled lattice spheres of
+# Scaling study: filled lattice spheres of
 # about 1e3 ... 1e6 beads at L = 2 with the default settings (FFT operator, one surface layer,
 # symmetry-derived motions, CG tolerance 1e-3), 2 ranks; the 1e5 sphere and the paper cone also on 1
 # and 4 ranks (4 oversubscribed on the 2-core machine); before each run the dry run's estimate for

@@ -237,7 +237,7 @@ def independent_count(reading):
 
 
 def passes(coeffs, paper):
-    """The issue's targets: mu11, mu22, mu33 within 1 %, mu42 and mu51 within 3 %."""
+    """The targets: mu11, mu22, mu33 within 1 %, mu42 and mu51 within 3 %."""
     rel = (np.asarray(coeffs) - paper) / np.abs(paper)
     return rel, [abs(x) <= (0.01 if k < 3 else 0.03) + 1e-12 for k, x in enumerate(rel)]
 

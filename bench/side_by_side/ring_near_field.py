@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """What a far-field approximation would cost a paper ring: the exact near field it needs, measured
-beside the exact FFT product; writes bench/side_by_side/ring_near_field.md (issue 24, item 4).
+beside the exact FFT product; writes bench/side_by_side/ring_near_field.md (docs/theory.md T4,
+"What bounds a hollow body's product").
 
 An approximate far field on a grid of spacing h (the precorrected FFT, docs/theory.md T16) keeps
 its interpolation error, (s h / r)^s for pairs at distance r, by computing the pairs within
@@ -9,7 +10,7 @@ needs r_near = 6 d. The pfft operator on the unit grid runs ring_1mm with both r
 lattice its interpolation is exact (weights 1 and 0, docs/theory.md T16), so the friction is the
 FFT operator's and the difference between the two radii is what the pairs from 3 d to 6 d cost:
 set-up, each product, memory. Beside them the FFT operator's ring_1mm job and the arrowhead's,
-the issue's yardstick (a ring within 2x of the arrowhead). The jobs alternate, --repeats times,
+the yardstick of bench/everyday_jobs (a ring within 2x of the arrowhead). The jobs alternate, --repeats times,
 2 ranks; medians.
 
 usage: python3 bench/side_by_side/ring_near_field.py [--exe build/beadmob] [--repeats 5]
@@ -68,7 +69,7 @@ def main():
               for label, values in runs.items()}
     reference = runs["ring_1mm, fft"][-1]
 
-    out = ["# A ring's exact near field, the price of an approximate far field (issue 24, item 4)", "",
+    out = ["# A ring's exact near field, the price of an approximate far field", "",
            f"Written by `bench/side_by_side/ring_near_field.py` on {platform.machine()}, {os.cpu_count()} cores: "
            f"{RANKS} ranks, the jobs alternated, medians of {args.repeats} runs. `job` is the friction job's own time "
            "(phase `total`), `per product` the solve phase over its Krylov iterations (the solves' products and "
@@ -93,7 +94,7 @@ def main():
             f"set-up {near6['blocks'] - near3['blocks']:.2f} s, "
             f"{1e3 * (near6['solve'] - near3['solve']) / products:.1f} ms per product in the solve, "
             f"{near6['memory'] - near3['memory']:.2f} GiB per rank. "
-            f"The issue's budget for a ring's job, twice the arrowhead's: {budget:.2f} s; "
+            f"The budget for a ring's job, twice the arrowhead's: {budget:.2f} s; "
             f"the ring's exact job with the FFT operator: {median['ring_1mm, fft']['job']:.2f} s, "
             f"{1e3 * median['ring_1mm, fft']['solve'] / reference['products']:.1f} ms per product."]
     (Path(__file__).resolve().parent / "ring_near_field.md").write_text("\n".join(out) + "\n")

@@ -1,5 +1,5 @@
 #!/bin/bash
-# The side-by-side tables of issue 24 (medians of 3 alternated runs each, this build):
+# The side-by-side tables of this folder (medians of 3 alternated runs each, this build):
 #   fft_planner.md    FFTW plans estimated against measured (no wisdom: every run plans anew)
 #   solve_together.md the motions solved together against one KSPSolve after another (both undeflated)
 #   deflation.md      the motions solved together, deflated by their right-hand sides or not

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """side_by_side.py --a "OPTIONS" --b "OPTIONS" --out FILE [--title T] [--exe BUILD/beadmob] [--repeats 3]
 [--ranks 2] [--random 1000] [--jittered 2000] [--random-only]:
-two sets of command-line options of one build, side by side on the jobs of issue 24 (lattice
+two sets of command-line options of one build, side by side on the everyday jobs of bench/everyday_jobs (lattice
 bodies; with --jittered, off-lattice ones too).
 
 Each job runs with options A and options B in alternation (both see the same machine), on `--ranks`

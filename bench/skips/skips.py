@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What each skip saves and costs (issue 7): the default run against the same run with one piece
+"""What each skip saves and costs: the default run against the same run with one piece
 of work added back or left out, side by side (the variants alternate within each repeat, so a
 change of the machine's load hits all of them alike), medians of 3 repeats, 2 ranks.
 

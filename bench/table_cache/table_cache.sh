@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Table cache gain (issue 5, item 5): the paper's cone (shapes/cone.nml, L = 2, 5088 beads) on 2
+# Table cache gain (docs/input.md, "Table cache"): the paper's cone (shapes/cone.nml, L = 2, 5088 beads) on 2
 # ranks, a run that fills an empty cache against a run that reads it, REPEATS times each (default
 # 3); prints the 'blocks' phase (block table + FFT kernel set-up), the whole friction job, the
 # process wall time and the CPU time (user + system, both ranks) of every run and their medians:
