@@ -188,7 +188,7 @@ contains
     result%chosen_by = chosen_by
     call write_result_file(ctx, config, model, frame, err, continuum=result)
     if (err%failed) return
-    if (config%checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
+    if (config%checkpoint .and. .not. config%keep_checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
     if (ctx%rank == 0) call print_continuum(config, result)
 
   contains

@@ -79,11 +79,12 @@ module beadmob_input_config
     type(continuum_settings_t) :: continuum
     !> Command-line switches of the run (driver/command_line.F90): skip the friction job; the
     !> dry run; the ranks it estimates for (0: the run's) and the GiB a rank may use (0: what the
-    !> node has); HDF5's own error stack on a failed call
+    !> node has); HDF5's own error stack on a failed call; a continuum job's checkpoint kept after
+    !> it finished (the same input then reruns the extrapolation without a solve)
     logical :: geometry_only = .false., dry_run = .false.
     integer :: estimate_ranks = 0
     real(dp) :: memory_limit_gib = 0.0_dp
-    logical :: hdf5_error_stack = .false.
+    logical :: hdf5_error_stack = .false., keep_checkpoint = .false.
   end type run_config_t
 
 contains

@@ -126,6 +126,15 @@ def main(beadmob, mpiexec, ranks, workdir):
         check(np.all(difference <= 1e-3 * c[error]),
               f"resumed {name} = uninterrupted within 1e-3 of the error bar (largest {np.max(difference / c[error]):.1e})")
     check(not checkpoint.exists(), "the resumed job removes its checkpoint")
+    # -keep_checkpoint: the finished job keeps it; the rerun solves nothing and gives the same values.
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "-keep_checkpoint")
+    again = run(beadmob, mpiexec, ranks, workdir, nml, "-keep_checkpoint")
+    rerun = continuum(Path(workdir) / "killed.h5")
+    check(done.returncode == 0 and again.returncode == 0 and checkpoint.exists()
+          and "resuming with 8 samples" in again.stdout and "beadmob: continuum level" not in again.stdout
+          and np.all(np.abs(rerun["mobility"] - c["mobility"]) <= 1e-3 * c["mobility_error"]),
+          "-keep_checkpoint: the checkpoint kept; the rerun extrapolates its 8 samples again without a solve")
+    checkpoint.unlink(missing_ok=True)
 
     # 3. A checkpoint of another input.
     checkpoint.write_text(f"beadmob-continuum-checkpoint 1 0123456789ABCDEF 1.25E-01\n")
