@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """continuum.py [--exe BUILD/beadmob] [--budget S] [--ellipsoids] [--paper] [--out FILE]: the
-continuum job (&continuum, issue 25 items 3 and 4) against exact results, on 2 ranks.
+continuum job (&continuum, docs/theory.md T18) against exact results, on 2 ranks.
 
---ellipsoids: the bodies of issue 25 (sphere, prolate 2:1 and 4:1, oblate 1:2 and 1:4, triaxial
+--ellipsoids: six ellipsoids (sphere, prolate 2:1 and 4:1, oblate 1:2 and 1:4, triaxial
   3:2:1), smallest semi-axis 1 in their own unit, bead_diameter 1/8 (the ordinary run), each a
   continuum job with time_budget S (default settings otherwise: 7 levels x 4 offsets). Compared
   with the exact ellipsoid (scripts/beadmob_post/ellipsoid.py: Oberbeck, Jeffery via Carlson's

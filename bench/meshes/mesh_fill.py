@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """mesh_fill.py [--exe BUILD/beadmob] [--repeats 3]: how long a large mesh takes to become a bead
-model (issue 25, item 2: "a 1e6-triangle mesh fills in seconds").
+model (docs/input.md, "Meshes": a 1e6-triangle mesh fills in seconds).
 
 A sphere of radius 1 (mesh units) tessellated into about 1e6 triangles (binary and ascii STL),
 filled at bead diameters 1/20, 1/40 and 1/60 (about 3e4, 2.7e5 and 9e5 beads): the whole

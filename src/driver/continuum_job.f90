@@ -1,4 +1,4 @@
-!> The continuum job (&continuum, issue 25 item 3, docs/theory.md T18): the mobility of the body
+!> The continuum job (&continuum, docs/theory.md T18): the mobility of the body
 !> a shape describes, not of one bead model of it. A ladder of resolutions (bead diameters a
 !> factor 2**(1/3) apart, bead counts a factor 2), chosen from the time budget with the dry
 !> run's estimates; at each, the friction job on `offsets` bead models of the same body on

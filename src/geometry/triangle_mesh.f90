@@ -1,4 +1,4 @@
-!> Triangle meshes as particle geometry (issue 25, item 2): STL (ascii and binary) and OBJ files
+!> Triangle meshes as particle geometry: STL (ascii and binary) and OBJ files
 !> read into one vertex list, checked to bound a solid (closed, every edge between exactly two
 !> consistently oriented triangles), and filled on the bead lattice.
 !>

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""check_continuum.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job (&continuum, issue 25 item 3;
+"""check_continuum.py BEADMOB MPIEXEC RANKS WORKDIR: the continuum job (&continuum;
 src/driver/continuum_job.f90, docs/theory.md T18), end to end.
 
 1. A sphere of radius 1 (bead_diameter 0.25, four levels down to d = 0.16, two offsets each):
