@@ -30,6 +30,8 @@ module beadmob_continuum_fit
     !> ellipsoid's semi-axes and axes (columns).
     real(dp) :: volume = 0.0_dp, volume_error = 0.0_dp, centroid(3) = 0.0_dp
     real(dp) :: semi_axes(3) = 0.0_dp, axes(3, 3) = 0.0_dp
+    !> The body's mean moments from the fills (volume, first 3, second 9 column-major; body_moments_t)
+    real(dp) :: body_moments(13) = 0.0_dp
     !> Per sample: its level, offset (d), beads, Krylov iterations (sum over its solves), 1 when
     !> every solve converged, largest true relative residual, wall time, ||K - K^T|| / ||K|| of
     !> its friction K; its friction as solved
