@@ -195,7 +195,9 @@ def solve(exe, body, index, form, budget, folder):
         shape = f"&shape name = 'mesh', file = 'body.stl', bead_diameter = {body.bead_diameter:g} /\n&hydrodynamics /\n"
     meta.update(rotation=rotation.tolist(), centre=centre.tolist())
     try:
-        _, wall = run(exe, shape + f"&continuum time_budget = {budget:g} /\n", folder, fatal=False)
+        # -keep_checkpoint: the samples stay, so a later build's estimate reruns them in seconds.
+        _, wall = run(exe, shape + f"&continuum time_budget = {budget:g} /\n", folder, fatal=False,
+                      options=("-keep_checkpoint",))
         meta["wall"] = wall
     except JobFailed as failure:
         lines = [line.strip() for line in str(failure).splitlines() if line.strip() and not line.startswith("---")]
