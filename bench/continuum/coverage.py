@@ -240,6 +240,7 @@ def analyse(body, form, folder):
         value, bar, fit = turned[i, i], replayed[i][1], replayed[i][2]
         row["entries"].append(dict(name=ENTRIES[i], exact=exact[i], value=value, bar=bar, linear_bar=linear[i],
                                    error=value - exact[i], spread=fit.model_spread, sigma=fit.standard_error,
+                                   chi2=fit.reduced_chi2,
                                    volume_term=bar - fit.fit_error, power=entry_power(i, i)))
     if body.semi_axes is not None:
         exact_input = q @ np.diag(exact) @ q.T
@@ -294,6 +295,9 @@ def coverage(entries):
             f"{np.median(ratios):.2f}")
 
 
+PARTS = (lambda e: 2 * e["sigma"], lambda e: e["spread"], lambda e: e["volume_term"])
+
+
 def summary(rows):
     done = [row for row in rows if "entries" in row]
     every = [e | {"row": row} for row in done for e in row["entries"]]
@@ -328,6 +332,23 @@ def summary(rows):
         text += "\n\nNot in the totals: " + "; ".join(
             f"{row['body'].label} ({row['form']}) {'failed: ' + row['meta']['failed'] if 'meta' in row else 'not run'}"
             for row in failed + missing) + "."
+    text += "\n\nThe bar's parts (medians over the entries of each group, as fractions of the bar), and what each part alone " \
+            "would cover (entries inside / median part / error):\n\n| entries | 2 sigma | model spread | volume term | " \
+            "2 sigma alone | spread alone |\n|---|---|---|---|---|---|\n"
+    for name, group in groups:
+        if not group:
+            continue
+        parts = [np.median([part(e) / e["bar"] for e in group]) for part in PARTS]
+        alone = []
+        for part in PARTS[:2]:
+            inside = sum(abs(e["error"]) <= part(e) for e in group)
+            alone.append(f"{inside} / {len(group)}, {np.median([part(e) / abs(e['error']) for e in group]):.2f}")
+        text += f"| {name} | " + " | ".join(f"{100 * x:.0f} %" for x in parts) + " | " + " | ".join(alone) + " |\n"
+    text += ("\nThe true error in units of the fit's sigma, |error| / sigma (a normal error would give a median of "
+             "0.67), and the quadratic's reduced chi^2 over the levels (1 when the level means scatter as their "
+             "standard errors from the offsets say; sigma is inflated by it when above 1), medians: "
+             + "; ".join(f"{name} {np.median([abs(e['error']) / e['sigma'] for e in group]):.2f} and "
+                         f"{np.median([e['chi2'] for e in group]):.2f}" for name, group in groups if group) + ".")
     linear = sum(abs(e["error"]) <= e["linear_bar"] for e in every)
     turned = [e for e in every if e["row"]["form"] == "mesh"]
     linear_ratio = np.median([e["linear_bar"] / abs(e["error"]) for e in turned]) if turned else np.nan

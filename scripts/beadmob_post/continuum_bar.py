@@ -37,6 +37,7 @@ class Extrapolation:
     standard_error: float   # of that intercept (inflated by the reduced chi^2 when above 1)
     linear_value: float     # the line through the three finest levels, at h = 0
     reduced_value: float    # the quadratic without the coarsest level, at h = 0
+    reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3)
 
     @property
     def model_spread(self) -> float:
@@ -44,8 +45,8 @@ class Extrapolation:
 
     @property
     def fit_error(self) -> float:
-        """The error bar without the volume term: 2 sigma + the model spread."""
-        return 2.0 * self.standard_error + self.model_spread
+        """The error bar without the volume term: the quadrature sum of 2 sigma and the model spread."""
+        return float(np.hypot(2.0 * self.standard_error, self.model_spread))
 
 
 def read_samples(path: str | Path) -> ContinuumSamples:
@@ -96,8 +97,9 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
                                np.full(n, np.finfo(float).tiny)])
     weights = 1.0 / sigma**2
     coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
+    reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
     if n > 3:
-        variance *= max(1.0, chi2 / (n - 3))
+        variance *= max(1.0, reduced_chi2)
     order = np.argsort(h, kind="stable")
     finest = order[:3]
     linear = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1)[0][0]
@@ -105,7 +107,7 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     if n > 3:
         kept = order[: n - 1]
         reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
-    return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced))
+    return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced), float(reduced_chi2))
 
 
 def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
