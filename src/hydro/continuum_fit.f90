@@ -3,12 +3,12 @@
 !> with that mean's standard error, is extrapolated to zero bead size h = d by weighted least
 !> squares in h and h^2 (measured on spheres and ellipsoids: the offset-averaged, volume- and
 !> shape-corrected error of an order-L bead model is smooth in h and vanishes with it,
-!> bench/continuum/continuum.md). The error bar adds
+!> bench/continuum/continuum.md). The error bar is the quadrature sum of
 !>   - twice the fit's standard error of the intercept (inflated by the reduced chi^2 when the
-!>     levels scatter more than their standard errors say),
+!>     levels scatter more than their standard errors say) and
 !>   - the model spread: how far the straight line through the three finest levels and the
-!>     quadratic without the coarsest level land from the quadratic, and
-!>   - what the caller knows besides (the continuum volume's own uncertainty).
+!>     quadratic without the coarsest level land from the quadratic,
+!> plus what the caller knows besides (the continuum volume's own uncertainty).
 module beadmob_continuum_fit
   use beadmob_kinds, only: dp
   implicit none
@@ -110,8 +110,10 @@ contains
         fit%reduced_value = coefficients(1)
       end associate
     end if
-    fit%error = 2.0_dp * fit%standard_error + max(abs(fit%linear_value - fit%value), abs(fit%reduced_value - fit%value)) + &
-                extra
+    ! The fit's noise (2 sigma) and the model's uncertainty (the spread) are independent: their
+    ! quadrature sum (docs/theory.md T18, "The error bar").
+    fit%error = hypot(2.0_dp * fit%standard_error, max(abs(fit%linear_value - fit%value), &
+                                                       abs(fit%reduced_value - fit%value))) + extra
   end function extrapolate_to_zero
 
   !> Least squares of y ~ sum_j c_j x^(j-1), j = 1..degree+1, with weights w (1 / variance);
