@@ -15,16 +15,17 @@ class JobFailed(RuntimeError):
     """beadmob exited with an error; the message holds the input and what it printed."""
 
 
-def run(exe, text, workdir, name="job", fatal=True, options=()):
+def run(exe, text, workdir, name="job", fatal=True, options=(), fresh=True):
     """Run `&run output = '<name>.h5', progress = .false. /` + text on RANKS ranks in workdir (the
     input written to <name>.nml, what the job printed to <name>.log; a stale result file and
     continuum checkpoint are removed first): (result file, wall time of the whole process in s).
     A failed job exits the script (fatal) or raises JobFailed. `options`: beadmob's command-line
-    options after the input file (e.g. -keep_checkpoint)."""
+    options after the input file (e.g. -keep_checkpoint). fresh = False keeps a continuum
+    checkpoint of the same input, so the job resumes from (or only re-extrapolates) its samples."""
     workdir = Path(workdir)
     nml, result = workdir / f"{name}.nml", workdir / f"{name}.h5"
     nml.write_text(f"&run output = '{name}.h5', progress = .false. /\n" + text)
-    for stale in (result, workdir / f"{name}.h5.continuum_checkpoint"):
+    for stale in (result, workdir / f"{name}.h5.continuum_checkpoint") if fresh else (result,):
         stale.unlink(missing_ok=True)
     start = time.perf_counter()
     done = subprocess.run(["mpiexec", "-n", str(RANKS), str(exe), str(nml), *options], cwd=workdir, env=ENV,

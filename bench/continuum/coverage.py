@@ -206,6 +206,26 @@ def solve(exe, body, index, form, budget, folder):
     return meta
 
 
+def refit(exe, folder):
+    """The kept job's extrapolation redone by this build from its checkpoint (every sample is in it:
+    no solve): the same input with -keep_checkpoint. The solve's wall time and build stay in
+    meta.json; the refit's are added."""
+    meta_path = folder / "meta.json"
+    if not meta_path.exists() or not (folder / "job.h5.continuum_checkpoint").exists():
+        return None
+    meta = json.loads(meta_path.read_text())
+    text = (folder / "job.nml").read_text().split("\n", 1)[1]      # without the &run line run() writes
+    try:
+        _, wall = run(exe, text, folder, fatal=False, options=("-keep_checkpoint",), fresh=False)
+    except JobFailed as failure:
+        sys.exit(f"refit of {folder} failed:\n{failure}")
+    if "resum" not in (folder / "job.log").read_text().lower():
+        print(f"warning: {folder}: the refit's log does not say it resumed from the checkpoint", flush=True)
+    meta.update(refit_source=build_version(exe), refit_wall=wall, refit_date=datetime.date.today().isoformat())
+    meta_path.write_text(json.dumps(meta, indent=1))
+    return meta
+
+
 def analyse(body, form, folder):
     """A row: the job's ladder and time, and per principal diagonal entry (exact, value, bar)."""
     meta_path = folder / "meta.json"
@@ -344,6 +364,10 @@ def summary(rows):
             inside = sum(abs(e["error"]) <= part(e) for e in group)
             alone.append(f"{inside} / {len(group)}, {np.median([part(e) / abs(e['error']) for e in group]):.2f}")
         text += f"| {name} | " + " | ".join(f"{100 * x:.0f} %" for x in parts) + " | " + " | ".join(alone) + " |\n"
+    summed = sum(abs(e["error"]) <= sum(part(e) for part in PARTS) for e in every)
+    text += (f"\nWith the parts added instead (2 sigma + spread + volume term, the bar before 241d8d3): {summed} / "
+             f"{len(every)} inside, median bar / error "
+             f"{np.median([sum(part(e) for part in PARTS) / abs(e['error']) for e in every]):.2f}.\n")
     text += ("\nThe true error in units of the fit's sigma, |error| / sigma (a normal error would give a median of "
              "0.67), and the quadratic's reduced chi^2 over the levels (1 when the level means scatter as their "
              "standard errors from the offsets say; sigma is inflated by it when above 1), medians: "
@@ -371,6 +395,8 @@ def main():
     parser.add_argument("--forms", default=",".join(FORMS))
     parser.add_argument("--keep", default=str(Path(__file__).with_name("coverage_runs")))
     parser.add_argument("--reuse", default=None, help="analyse the jobs kept in this folder, solve nothing")
+    parser.add_argument("--refit", action="store_true",
+                        help="with --reuse: first redo each kept job's extrapolation with --exe from its checkpoint")
     parser.add_argument("--out", default=str(Path(__file__).with_name("coverage.md")))
     parser.add_argument("--list", action="store_true", help="print the bodies and their placements and stop")
     arguments = parser.parse_args()
@@ -389,6 +415,10 @@ def main():
     rows = []
     for i, body, form in selected:
         folder = keep / f"{body.key}-{form}"
+        if arguments.reuse and arguments.refit:
+            meta = refit(Path(arguments.exe).resolve(), folder)
+            print(f"{body.key} {form}: " + ("no checkpoint kept" if meta is None else f"refit in {meta['refit_wall']:.0f} s"),
+                  flush=True)
         if not arguments.reuse:
             meta = solve(Path(arguments.exe).resolve(), body, i, form, arguments.budget, folder)
             print(f"{body.key} {form}: " + (f"failed: {meta['failed']}" if "failed" in meta else f"{meta['wall']:.0f} s"),
@@ -404,10 +434,13 @@ def main():
         command += f" --forms {arguments.forms}"
     dates = sorted({m["date"] for m in metas})
     sources = sorted({m["source"] for m in metas})
+    refits = sorted({m["refit_source"] for m in metas if "refit_source" in m})
     paragraphs = __doc__.split("\n\n")
     text = (f"# Coverage of the continuum job's error bar (issue 44 item 3)\n\n"
             f"Written by `{command}` (2 ranks, this machine; jobs solved {', '.join(dates)} with the build of "
             f"{', '.join(sources)}; budgets {', '.join(f'{b:g}' for b in budgets)} s"
+            + (f"; the extrapolations redone from the jobs' checkpoints (no solve) by the build of {', '.join(refits)}"
+               if refits else "")
             + (f"; table rerun from the kept jobs with --reuse" if arguments.reuse else "") + ").\n\n"
             + "\n\n".join(paragraphs[1:6]) + "\n\n## Summary\n\n" + summary(rows)
             + "\n\n## Per body\n\n`held`: the principal diagonal entries with an exact value inside the bar; "
