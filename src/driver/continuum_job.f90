@@ -304,7 +304,7 @@ contains
   !> bead_diameter d (first offset). Its bead count at d, volume / d^3, foresees every level's
   !> (beads ~ d^-3); its thinnest equivalent semi-axis bounds how coarse a level may be. The
   !> coarsest candidate level is the coarsest foreseen to hold minimum_coarsest_beads and to be a
-  !> bead diameter thick; levels are filled (survey_level) only from there down, so a level
+  !> bead diameter thick (d_k <= twice the thinnest semi-axis); levels are filled (survey_level) only from there down, so a level
   !> without beads is never visited, whatever the machine's speed.
   subroutine survey_body(ctx, config, mesh, survey, err)
     type(run_context_t), intent(in) :: ctx
@@ -340,9 +340,10 @@ contains
     if (err%failed) return
     survey%user_beads = nint(min(beads, 2.0e9_dp))
     survey%thinnest = minval(semi_axes)
-    ! beads(k) ~ beads 2**(-k) >= minimum_coarsest_beads, and d_k = d 2**(k/3) <= thinnest.
+    ! beads(k) ~ beads 2**(-k) >= minimum_coarsest_beads, and d_k = d 2**(k/3) <= 2 thinnest
+    ! (a bead across the thinnest extent; the budget then chooses how much finer to go).
     survey%coarsest = min(floor(log(beads / minimum_coarsest_beads) / log(2.0_dp)), &
-                          floor(3.0_dp * log(survey%thinnest / d) / log(2.0_dp)))
+                          floor(3.0_dp * log(2.0_dp * survey%thinnest / d) / log(2.0_dp)))
     survey%finest = survey%coarsest - config%continuum%levels + 1 - ladder_span
     allocate (survey%beads(survey%finest:survey%coarsest), survey%seconds(survey%finest:survey%coarsest))
     survey%beads = -1
