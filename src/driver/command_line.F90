@@ -32,10 +32,12 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(19) = [ &
+  type(option_t), parameter :: options(20) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
+    option_t('operator_error_rows', 'K', integer_number, 'off-lattice far field: its error measured on K exact rows ' // &
+             '(default: all rows up to a budget, docs/theory.md T16)'), &
     option_t('fft_planner', 'auto|measure|estimate', word, 'FFTW plans: measured (faster products), estimated ' // &
              '(reproducible) or auto (default: measured when remembered with a table cache)'), &
     option_t('fft_whole_box', '', switch, 'FFT products on the whole padded box, not by mirror class of a ' // &
@@ -268,6 +270,7 @@ contains
     character(len=256) :: value
     PetscBool :: found
     PetscErrorCode :: ierr
+    PetscReal :: rtol
     integer :: k
     ! &run progress = .false. or -quiet silence the progress lines.
     config%hydrodynamics%progress = config%progress
@@ -280,6 +283,10 @@ contains
     end do
     PetscCallA(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ksp_rtol', found, ierr))
     config%hydrodynamics%krylov_rtol_on_command_line = found
+    if (found) then
+      PetscCallA(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ksp_rtol', rtol, found, ierr))
+      if (found) config%hydrodynamics%ksp_rtol_value = rtol
+    end if
   end subroutine read_command_line
 
   !> The value of one given option, checked against its kind, where it belongs.
@@ -314,8 +321,12 @@ contains
         job%operator_name = value
       case ('pfft_near_radius')
         job%pfft_near_radius = number
+        job%pfft_near_radius_given = .true.
       case ('pfft_stencil')
         job%pfft_stencil = whole
+      case ('operator_error_rows')
+        job%operator_error_rows = whole
+        if (whole < 1) call raise(err, '-operator_error_rows must be at least 1, got ' // value)
       case ('fft_planner')
         job%fft_planner = value
       case ('fft_whole_box')

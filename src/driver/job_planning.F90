@@ -10,7 +10,8 @@ module beadmob_job_planning
   use petscsys
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str, either
+  use beadmob_strings, only: str, either, str_significant
+  use beadmob_pfft_operator, only: pfft_expected_error
   use beadmob_parallel, only: run_context_t, agree_on_error
   use beadmob_resources, only: available_memory_bytes, online_processors
   use beadmob_input_config, only: run_config_t
@@ -65,7 +66,7 @@ contains
 
     associate (estimate => plan%estimate)
       if (config%dry_run) then
-        if (ctx%rank == 0) call print_estimate(plan, limit, limit_given, ranks_given)
+        if (ctx%rank == 0) call print_estimate(plan, limit, limit_given, ranks_given, config%hydrodynamics%pfft_stencil)
         return
       end if
       call progress_line(config%hydrodynamics%progress .and. ctx%rank == 0, 'estimate: ' // gib_text(estimate%peak) // &
@@ -81,10 +82,11 @@ contains
     call agree_on_error(ctx, err)
   end subroutine plan_friction_job
 
-  subroutine print_estimate(plan, limit, limit_given, ranks_given)
+  subroutine print_estimate(plan, limit, limit_given, ranks_given, config_stencil)
     type(job_plan_t), intent(in) :: plan
     real(dp), intent(in) :: limit
     logical, intent(in) :: limit_given, ranks_given
+    integer, intent(in) :: config_stencil   ! the pfft operator's stencil
     associate (e => plan%estimate)
     write (*, '(a)') 'beadmob: estimate for ' // str(e%n_ranks) // ' rank(s) (dry run: nothing built, no result file)'
     write (*, '(a)') '  beads:                ' // str(e%n_beads) // ' (' // str(e%solve_beads) // ' in the solve)'
@@ -96,6 +98,10 @@ contains
     else
       write (*, '(a)') '  operator:             ' // trim(e%operator_name)
     end if
+    if (allocated(plan%operator_reason)) write (*, '(a)') '  chosen:               ' // plan%operator_reason
+    if (e%operator_name == 'pfft') write (*, '(a)') '  pfft near radius:     ' // str_significant(plan%pfft_near_radius, 3) // &
+      ' d (far field''s expected error ' // str_significant(pfft_expected_error(config_stencil, plan%pfft_near_radius), 2) // &
+      ', docs/theory.md T16)'
     write (*, '(a)') '  canonical blocks:     ' // str(e%canonical_blocks) // ' (from the axial table)'
     write (*, '(a)') '  memory per rank:      ' // gib_text(e%peak) // ' GiB (' // trim(breakdown(e)) // ')'
     if (limit < huge(1.0_dp)) then

@@ -5,7 +5,7 @@ module beadmob_run
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str
+  use beadmob_strings, only: str, str_significant
   use beadmob_parallel, only: run_context_t, agree_on_error, broadcast_text
   use beadmob_input_config, only: run_config_t, parse_input_text, built_in_source, default_estimate_order, &
                                   effective_input_text
@@ -21,9 +21,10 @@ module beadmob_run
   use beadmob_hdf5_support, only: set_hdf5_error_stack
   use beadmob_friction_settings, only: friction_settings_t
   use beadmob_friction_job, only: friction_of_plan, friction_result_t, phase_names
-  use beadmob_job_plan, only: job_plan_t
+  use beadmob_job_plan, only: job_plan_t, requested_accuracy
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
-  use beadmob_error_estimate, only: estimate_error
+  use beadmob_error_estimate, only: estimate_error, add_operator_error
+  use beadmob_operator_error_bar, only: estimate_operator_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
   use beadmob_unit_lattice, only: on_unit_lattice
@@ -178,6 +179,27 @@ contains
           job_result%estimate = estimate_error(mobility%body_mobility, companion_mobility, model%reference_length, &
                                           job_result%companion_order)
         end if
+        ! The pfft far field's error, measured on a sample of rows, added to the error bar (theory.md T16).
+        if (job_result%operator_sample%rows > 0 .and. job_result%diagnostics%finite .and. &
+            all(config%hydrodynamics%motions)) then
+          job_result%operator_error = estimate_operator_error(job_result%operator_sample%terms, &
+                                                              job_result%operator_sample%second, &
+                                                              job_result%operator_sample%probability, &
+                                                              job_result%operator_sample%every_row, &
+                                                              job_result%operator_sample%n_beads, job_result%friction, &
+                                                              mobility%mobility, mobility%body_axes, model%reference_length)
+          job_result%operator_error%seconds = job_result%operator_sample%seconds
+          if (job_result%estimate%available) call add_operator_error(job_result%estimate, &
+            job_result%operator_error%scaled_mobility_error, mobility%body_mobility, model%reference_length)
+          associate (measured => max(job_result%operator_error%relative_mobility, &
+                                     job_result%operator_error%relative_friction), &
+                     asked => requested_accuracy(config%hydrodynamics))
+            if (measured > asked .and. ctx%rank == 0) write (error_unit, '(a)') 'beadmob: warning: the pfft far ' // &
+              'field''s measured error, ' // str_significant(measured, 2) // ' of the largest friction or mobility ' // &
+              'entry, is above the ' // str_significant(asked, 2) // ' the job asks for (its Krylov tolerance or ' // &
+              'accuracy target); -operator direct, or a larger -pfft_near_radius, meets it (docs/theory.md T16)'
+          end associate
+        end if
     end subroutine solve_and_estimate
 
     !> An accuracy target is met when the run's own estimate (the largest over the five
@@ -327,6 +349,11 @@ contains
       write (*, '(a)') '  estimated error: not computed (error_estimate = .false.; on by default up to L = ' // &
         str(default_estimate_order) // ', docs/theory.md T14)'
     end if
+    if (job_result%operator_error%available) write (*, '(a, es8.1, a, es8.1, a)') '  far-field (pfft) error:', &
+      job_result%operator_error%relative_mobility, ' of the largest mobility entry,', job_result%operator_error%largest, &
+      ' on the scale sqrt(M_ii M_jj)' // trim(merge(', in the error bar', '                  ', &
+      job_result%estimate%available)) // ' (exact rows of ' // str(job_result%operator_error%rows) // ' of ' // &
+      str(job_result%operator_error%n_beads) // ' beads, docs/theory.md T16)'
     if (len_trim(job_result%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(job_result%cache_file) // ': ' // &
       str(job_result%cached_blocks) // ' blocks read, ' // str(job_result%computed_blocks) // ' computed; lubrication ' // &
       str(job_result%lubrication_table%cached_distances) // ' distances read, ' // &

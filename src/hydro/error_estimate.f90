@@ -20,7 +20,7 @@ module beadmob_error_estimate
   implicit none
   private
   public :: error_estimate_t, estimate_error, entry_factor, block_factor, extrapolation_ratio, &
-            extrapolated_entry_factor, extrapolated_block_factor
+            extrapolated_entry_factor, extrapolated_block_factor, add_operator_error
 
   ! bench/error_estimate/error_estimate.md, "Calibration" (fitted on the tuning bodies only).
   real(dp), parameter :: entry_factor = 0.6_dp
@@ -42,8 +42,12 @@ module beadmob_error_estimate
     real(dp) :: extrapolated_coefficients(5) = 0.0_dp
     real(dp) :: extrapolated_coefficient_error(5) = 0.0_dp
     real(dp) :: scaled_extrapolated_coefficient_error(5) = 0.0_dp
+    real(dp) :: scaled_extrapolated_mobility_error(6, 6) = 0.0_dp
     real(dp) :: largest = 0.0_dp                ! max over the 36 entries of the scaled error
     real(dp) :: largest_extrapolated = 0.0_dp
+    !> The truncation's part alone (the companion's step) when an approximate operator's error
+    !> was added (add_operator_error); otherwise equal to largest
+    real(dp) :: largest_truncation = 0.0_dp
   end type error_estimate_t
 
 contains
@@ -74,6 +78,8 @@ contains
     estimate%extrapolated_mobility = body_mobility + extrapolation_ratio * (body_mobility - companion_body_mobility)
     extrapolated_scaled = max(extrapolated_entry_factor * step, extrapolated_block_factor * block)
     estimate%largest = maxval(estimate%scaled_mobility_error)
+    estimate%largest_truncation = estimate%largest
+    estimate%scaled_extrapolated_mobility_error = extrapolated_scaled
     estimate%largest_extrapolated = maxval(extrapolated_scaled)
     do k = 1, 5
       i = coefficient_entries(1, k)
@@ -88,4 +94,31 @@ contains
                                                    extrapolated_scaled(i, j) * scale(i, j)
     end do
   end function estimate_error
+
+  !> The error bar of a run whose operator approximates the Galerkin matrix (the pfft far field,
+  !> theory.md T16): its bound, entry by entry in the same measure (scaled_error, on the scale
+  !> sqrt(M_ii M_jj) of body_mobility), added to the truncation's estimate and to the
+  !> extrapolated value's error (the extrapolation in L does not remove it).
+  pure subroutine add_operator_error(estimate, scaled_error, body_mobility, reference_length)
+    type(error_estimate_t), intent(inout) :: estimate
+    real(dp), intent(in) :: scaled_error(6, 6), body_mobility(6, 6), reference_length
+    real(dp) :: scale(6, 6), diagonal(6)
+    integer :: i, j, k
+    diagonal = [(sqrt(abs(body_mobility(i, i))), i = 1, 6)]
+    scale = spread(diagonal, 2, 6) * spread(diagonal, 1, 6)
+    estimate%scaled_mobility_error = estimate%scaled_mobility_error + scaled_error
+    estimate%mobility_error = estimate%scaled_mobility_error * scale
+    estimate%scaled_extrapolated_mobility_error = estimate%scaled_extrapolated_mobility_error + scaled_error
+    estimate%largest = maxval(estimate%scaled_mobility_error)
+    estimate%largest_extrapolated = maxval(estimate%scaled_extrapolated_mobility_error)
+    do k = 1, 5
+      i = coefficient_entries(1, k)
+      j = coefficient_entries(2, k)
+      estimate%scaled_coefficient_error(k) = estimate%scaled_mobility_error(i, j)
+      estimate%coefficient_error(k) = coefficient_lengths(k, reference_length) * estimate%mobility_error(i, j)
+      estimate%scaled_extrapolated_coefficient_error(k) = estimate%scaled_extrapolated_mobility_error(i, j)
+      estimate%extrapolated_coefficient_error(k) = coefficient_lengths(k, reference_length) * &
+                                                   estimate%scaled_extrapolated_mobility_error(i, j) * scale(i, j)
+    end do
+  end subroutine add_operator_error
 end module beadmob_error_estimate

@@ -60,6 +60,11 @@ module beadmob_friction_settings
     !> The precorrected-FFT operator's interpolation points per axis and exact-pair radius (d)
     integer :: pfft_stencil = default_pfft_stencil
     real(dp) :: pfft_near_radius = default_pfft_near_radius
+    !> -pfft_near_radius was given: the plan keeps it whatever accuracy the job asks for
+    logical :: pfft_near_radius_given = .false.
+    !> Rows of the exact far field that measure the pfft operator's error (operator_error.F90;
+    !> 0: as many as its budget allows)
+    integer :: operator_error_rows = 0
     !> FFTW planner of the FFT operators: 'measure' (faster products, after trial transforms that
     !> cost about fifteen products unless remembered), 'estimate' (bitwise reproducible from run to
     !> run) or 'auto': measure where the plans are remembered (a table cache), else estimate
@@ -86,8 +91,9 @@ module beadmob_friction_settings
     integer :: near_field_cluster = 0
     !> -accuracy gave the target (it overrides the input's)
     logical :: accuracy_on_command_line = .false.
-    !> PETSc's -ksp_rtol is given (it overrides krylov_rtol)
+    !> PETSc's -ksp_rtol is given (it overrides krylov_rtol), and its value
     logical :: krylov_rtol_on_command_line = .false.
+    real(dp) :: ksp_rtol_value = 0.0_dp
     !> Test option -stop_after_solves k: stop with an error after the k-th solve has been saved
     !> (0 = never; -1: given but not a number >= 1, an error)
     integer :: stop_after_solves = 0

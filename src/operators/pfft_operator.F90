@@ -37,6 +37,13 @@ module beadmob_pfft_operator
   implicit none
   private
   public :: pfft_operator_t, create_pfft_operator, destroy_pfft_operator, create_pfft_companion, pfft_grid_nodes
+  public :: pfft_expected_error, pfft_radius_for
+
+  !> The far field's expected error, largest over the bodies measured (bench/offlattice/pfft_near_radius.md:
+  !> jittered clusters, beads on a sphere, turned paper shapes and a turned rod, L = 1 and 2), relative
+  !> to the largest friction or mobility entry: expected_error_at_3 at the stencil of 4 points and the
+  !> near radius 3 d, falling as (3 d / r_near)^expected_error_decay (theory.md T16, "Error").
+  real(dp), parameter :: expected_error_at_3 = 5.0e-4_dp, expected_error_decay = 2.6_dp
 
   type, extends(multipole_operator_t) :: pfft_operator_t
     !> Interpolation points per axis (degree + 1) and the near radius (d): set before create.
@@ -156,6 +163,33 @@ contains
     cost%seconds_product = cost%seconds_product + direct_seconds * size%nb**2 * near_pairs
     cost%seconds_low_product = cost%seconds_low_product + direct_seconds * size%nb_low**2 * near_pairs
   end subroutine pfft_cost
+
+  !> The error the far field is expected to make at this stencil and near radius (d), relative to
+  !> the largest friction or mobility entry: the envelope of the measured bodies (the constants
+  !> above). Only the default stencil of 4 points is measured: another stencil is expected to err
+  !> as much as the default at its near radius (a larger stencil errs less, a smaller one more:
+  !> s = 2 is not promised, 1: no promise).
+  pure real(dp) function pfft_expected_error(stencil, near_radius)
+    integer, intent(in) :: stencil
+    real(dp), intent(in) :: near_radius
+    if (stencil < 4) then
+      pfft_expected_error = 1.0_dp
+    else
+      pfft_expected_error = expected_error_at_3 * (3.0_dp / max(near_radius, 1.0_dp))**expected_error_decay
+    end if
+  end function pfft_expected_error
+
+  !> The smallest near radius, in steps of 0.5 d from `radius`, whose expected error
+  !> (pfft_expected_error) is within `accuracy`; `radius` itself when it is already.
+  pure real(dp) function pfft_radius_for(stencil, radius, accuracy)
+    integer, intent(in) :: stencil
+    real(dp), intent(in) :: radius, accuracy
+    real(dp) :: wanted
+    pfft_radius_for = radius
+    if (accuracy <= 0.0_dp .or. pfft_expected_error(stencil, radius) <= accuracy .or. stencil < 4) return
+    wanted = 3.0_dp * (expected_error_at_3 / accuracy)**(1.0_dp / expected_error_decay)
+    pfft_radius_for = radius + 0.5_dp * ceiling((wanted - radius) / 0.5_dp - 1.0e-9_dp)
+  end function pfft_radius_for
 
   subroutine destroy_pfft(this)
     class(pfft_operator_t), intent(inout) :: this

@@ -7,7 +7,7 @@ module beadmob_result_file
   use beadmob_file_system, only: rename_file, remove_file
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str
+  use beadmob_strings, only: str, either
   use beadmob_parallel, only: run_context_t, block_range, agree_on_error
   use beadmob_build_info, only: program_version, git_hash
   use beadmob_input_config, only: run_config_t, effective_input_text
@@ -19,6 +19,8 @@ module beadmob_result_file
   use beadmob_error_estimate, only: error_estimate_t, entry_factor, block_factor, extrapolation_ratio, &
                                     extrapolated_entry_factor, extrapolated_block_factor
   use beadmob_friction_diagnostics, only: friction_diagnostics_t, condition_threshold, asymmetry_threshold
+  use beadmob_operator_error_bar, only: spread_factor, second_order_mid, second_order_half, coverage
+  use beadmob_operator_error, only: operator_sample_t
   use beadmob_continuum_fit, only: continuum_result_t
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
@@ -216,10 +218,13 @@ contains
                                                                   job_result%solves%source < 0)), err)
     call write_attribute(group, 'motions', trim(config%hydrodynamics%motions_text), err)
     call write_attribute(group, 'operator', trim(job_result%operator_name), err)
+    if (allocated(job_result%operator_reason)) call write_attribute(group, 'operator_choice', &
+                                                                     job_result%operator_reason, err)
     call write_attribute(group, 'near_field_radius', job_result%near_field_radius, err)
     ! the pfft operator's far-field settings (0 for the other operators: no approximation)
     call write_attribute(group, 'pfft_stencil', job_result%pfft_stencil, err)
     call write_attribute(group, 'pfft_near_radius', job_result%pfft_near_radius, err)
+    call write_operator_error(ctx, group, job_result, err)
     call write_attribute(group, 'near_field_cluster', job_result%near_field_cluster, err)
     call write_attribute(group, 'shell_layers', config%hydrodynamics%shell_layers, err)
     call write_attribute(group, 'krylov_rtol_setting', config%hydrodynamics%krylov_rtol, err)
@@ -360,6 +365,8 @@ contains
     call write_attribute(group, 'error_estimate_factors', [entry_factor, block_factor, extrapolation_ratio, &
                                                            extrapolated_entry_factor, extrapolated_block_factor], err)
     call write_attribute(group, 'estimated_error', e%largest, err)
+    ! the truncation's part alone (estimated_error less the operator's bound, theory.md T16)
+    call write_attribute(group, 'truncation_estimated_error', e%largest_truncation, err)
     call write_attribute(group, 'estimated_extrapolated_error', e%largest_extrapolated, err)
     call write_attribute(group, 'companion_order', job_result%companion_order, err)
     call write_attribute(group, 'companion_potential_order', job_result%companion_potential_order, err)
@@ -386,6 +393,68 @@ contains
     call write_replicated_dataset(ctx, group, 'scaled_extrapolated_coefficient_error', &
                                   e%scaled_extrapolated_coefficient_error, err)
   end subroutine write_estimate
+
+  !> The approximate operator's error (operator_error_bar.f90, theory.md T16): operator_error 0
+  !> for an exact operator, -1 when not measured (not all six motions, or a friction that is not
+  !> finite); with a measurement, its parts and the sample behind it.
+  subroutine write_operator_error(ctx, group, job_result, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: group
+    type(friction_result_t), intent(in) :: job_result
+    type(error_t), intent(inout) :: err
+    associate (e => job_result%operator_error)
+      if (job_result%operator_name /= 'pfft') then
+        call write_attribute(group, 'operator_error', 0.0_dp, err)
+        call write_attribute(group, 'operator_error_method', 'none: the ' // trim(job_result%operator_name) // &
+                             ' operator is the Galerkin matrix itself (to rounding)', err)
+        return
+      end if
+      if (.not. e%available) then
+        call write_attribute(group, 'operator_error', -1.0_dp, err)
+        call write_attribute(group, 'operator_error_method', 'none: the far field''s error needs all six motions ' // &
+                             'and a finite friction', err)
+        return
+      end if
+      call write_attribute(group, 'operator_error', e%relative_mobility, err)
+      call write_attribute(group, 'operator_error_friction', e%relative_friction, err)
+      call write_attribute(group, 'operator_error_scaled', e%largest, err)
+      call write_attribute(group, 'operator_error_method', 'the friction''s change with the exact far field, ' // &
+                           '-q_m . E q_n + rho (E q_m) . S^-1 (E q_n), E = A - A~ on exact rows (docs/theory.md T16): ' // &
+                           trim(either(job_result%operator_sample%every_row, 'every row of ', str(e%rows) // ' draws of ')) // &
+                           ' ' // str(e%n_beads) // ' beads', err)
+      call write_attribute(group, 'operator_error_rows', e%rows, err)
+      call write_attribute(group, 'operator_error_factors', [second_order_mid, second_order_half, spread_factor, coverage], &
+                           err)
+      call write_attribute(group, 'operator_error_seconds', e%seconds, err)
+      call write_replicated_dataset(ctx, group, 'operator_friction_change', transpose(e%friction_change), err)
+      call write_replicated_dataset(ctx, group, 'operator_friction_standard_error', &
+                                    transpose(e%friction_standard_error), err)
+      call write_replicated_dataset(ctx, group, 'operator_body_mobility_change', transpose(e%mobility_change), err)
+      call write_replicated_dataset(ctx, group, 'operator_body_mobility_error', transpose(e%mobility_error), err)
+      call write_replicated_dataset(ctx, group, 'scaled_operator_body_mobility_error', &
+                                    transpose(e%scaled_mobility_error), err)
+      call write_replicated_dataset(ctx, group, 'operator_coefficient_error', e%coefficient_error, err)
+      call write_replicated_dataset(ctx, group, 'operator_friction_second_order', transpose(e%friction_second), err)
+      call write_attribute(group, 'preconditioned_smallest_eigenvalue', job_result%solves%smallest_eigenvalue, err)
+      call write_attribute(group, 'operator_error_row_beads', int(job_result%operator_sample%row), err)
+      call write_replicated_dataset(ctx, group, 'operator_error_row_sizes', job_result%operator_sample%size_of_row, err)
+      call write_replicated_dataset(ctx, group, 'operator_error_row_probabilities', &
+                                    job_result%operator_sample%probability, err)
+      call write_replicated_dataset(ctx, group, 'operator_error_row_terms', row_terms(job_result%operator_sample), err)
+    end associate
+  end subroutine write_operator_error
+
+  !> (72, s): per sampled row k its first-order term t_k and its second-order w_k (operator_error.F90),
+  !> each 6x6 in rows of m: C-order readers see (s, 72) = (s, 2, 6, 6) as [k, part, m, n].
+  pure function row_terms(sample) result(values)
+    type(operator_sample_t), intent(in) :: sample
+    real(dp) :: values(72, sample%rows)
+    integer :: k
+    do k = 1, sample%rows
+      values(1:36, k) = reshape(transpose(sample%terms(:, :, k)), [36])
+      values(37:72, k) = reshape(transpose(sample%second(:, :, k)), [36])
+    end do
+  end function row_terms
 
   !> <prefix>_finite, _positive_definite, _symmetric, _well_conditioned (0/1), _condition_number,
   !> _min_eigenvalue, _eigenvalues (of the symmetric part), _asymmetry: friction_diagnostics.f90.

@@ -24,9 +24,11 @@ module beadmob_friction_job
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
+  use beadmob_operator_error_bar, only: operator_error_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_friction_settings, only: friction_settings_t
   use beadmob_job_plan, only: job_plan_t, make_job_plan
+  use beadmob_operator_error, only: operator_sample_t, sample_operator_error, operator_error_rows
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, friction_of_plan, phase_names, companion_orders
@@ -58,6 +60,7 @@ module beadmob_friction_job
     integer :: planned_solves = 0
     real(dp) :: estimated_peak_memory_bytes = 0.0_dp, estimated_seconds = 0.0_dp
     character(len=16) :: operator_name = ''        ! the operator used: direct, fft, pfft or dense
+    character(len=:), allocatable :: operator_reason   ! why (job_plan.f90, choose_operator)
     logical :: replicated_products = .false.       ! whole on every rank (replicated_operator.F90)
     real(dp) :: near_field_radius = 0.0_dp
     integer :: near_field_cluster = 0
@@ -91,6 +94,11 @@ module beadmob_friction_job
     type(solve_statistics_t) :: companion_solves
     !> The error bar made from the two (set by the driver, error_estimate.f90)
     type(error_estimate_t) :: estimate
+    !> The approximate operator's error measured on a sample of rows (operator_error.F90, theory.md
+    !> T16; rows 0: none, an exact operator), its terms in model coordinates
+    type(operator_sample_t) :: operator_sample
+    !> Its bound in the mobility (set by the driver, operator_error_bar.f90; available .false.: none)
+    type(operator_error_t) :: operator_error
   end type friction_result_t
 
 contains
@@ -120,11 +128,19 @@ contains
     type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
     real(dp) :: rotation(6, 6)
+    integer :: k
+    type(friction_settings_t) :: planned
 
     if (plan%body_frame) call progress_line(settings%progress .and. ctx%rank == 0, 'solving in the body frame: ' // &
       str(plan%n_solves) // ' solves for the six motions (' // str(plan%lab_solves) // ' in the model''s coordinates)')
-    call friction_of_beads(ctx, settings, plan%solve_centres, plan%reference_point, plan%operator_name, &
+    if (allocated(plan%operator_reason)) call progress_line(settings%progress .and. ctx%rank == 0, 'operator ' // &
+      trim(plan%operator_name) // ': ' // plan%operator_reason)
+    ! The settings with the plan's choices (the pfft near radius may be raised, job_plan.f90)
+    planned = settings
+    if (plan%pfft_near_radius > 0.0_dp) planned%pfft_near_radius = plan%pfft_near_radius
+    call friction_of_beads(ctx, planned, plan%solve_centres, plan%reference_point, plan%operator_name, &
                            plan%replicated_products, plan%symmetry_group, job_result, err)
+    if (allocated(plan%operator_reason)) job_result%operator_reason = plan%operator_reason
     job_result%planned_solves = plan%n_solves
     job_result%estimated_peak_memory_bytes = plan%estimate%peak
     job_result%estimated_seconds = plan%estimate%seconds_total
@@ -137,6 +153,10 @@ contains
     job_result%friction = turned_back(job_result%friction)
     job_result%companion_multipole_friction = turned_back(job_result%companion_multipole_friction)
     job_result%companion_friction = turned_back(job_result%companion_friction)
+    do k = 1, job_result%operator_sample%rows
+      job_result%operator_sample%terms(:, :, k) = turned_back(job_result%operator_sample%terms(:, :, k))
+      job_result%operator_sample%second(:, :, k) = turned_back(job_result%operator_sample%second(:, :, k))
+    end do
 
   contains
 
@@ -255,6 +275,8 @@ contains
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
       call mask_uncomputed(job_result%solves, job_result%multipole_friction)
       if (allocated(solver%symmetry)) job_result%symmetry_group_order = solver%symmetry%group_order
+      ! The pfft far field's error on a sample of rows (theory.md T16), before the solutions go
+      if (job_result%operator_name == 'pfft') call sample_far_field_error()
       if (settings%bead_forces) then
         allocate (job_result%bead_forces(36, count))
         call bead_forces_of_solutions(solver, projection, job_result%bead_forces)
@@ -304,6 +326,17 @@ contains
                        MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
 
   contains
+
+    !> job_result%operator_sample: the terms of the exact minus the pfft product on the rows
+    !> operator_error_rows chooses (all up to its budget), for the solutions of order L.
+    subroutine sample_far_field_error()
+      integer :: rows
+      rows = operator_error_rows(size(centres, 2, kind=i8), basis%size, settings%operator_error_rows)
+      call sample_operator_error(ctx%comm, basis, self, centres, first, count, solver%solution, solver%rhs, &
+                                 solver%residual, rows, job_result%operator_sample)
+      call progress_line(report, 'far-field error: ' // str(rows) // ' exact rows of ' // str(size(centres, 2)) // &
+                         ' beads (' // progress_seconds(job_result%operator_sample%seconds) // ' s)')
+    end subroutine sample_far_field_error
 
     !> The companion of order L - 1 on the same beads: the sub-basis of the order-L one, its operator
     !> read from the order-L operator (create_*_companion, no new quadrature or kernel), the

@@ -30,6 +30,10 @@ module beadmob_job_estimate
   !> The companion's iterations relative to the order-L solve's (started from its solution:
   !> 13, 10, 16, 18 against 17, 14, 22, 19 on the paper cone)
   real(dp), parameter :: companion_iteration_ratio = 0.8_dp
+  !> The Krylov tolerance the iteration counts above were measured at; a tighter one takes more
+  !> iterations in proportion to log(rtol) / log(fitted_rtol) (CG's error falls geometrically;
+  !> 300 jittered beads at L = 1: 14 iterations at 1e-3, 85 at 1e-11)
+  real(dp), parameter :: fitted_rtol = 1.0e-3_dp
 
   type :: job_estimate_t
     integer(i8) :: n_beads = 0, solve_beads = 0, unknowns = 0
@@ -58,7 +62,8 @@ contains
   !> Memory per rank: base + geometry N + what the operator holds + the largest of its set-up's
   !> transient need, the vectors and the companion (its operator, vectors and start).
   function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
-                        n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors, replicated) result(e)
+                        n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors, replicated, &
+                        krylov_rtol) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
     logical, intent(in) :: shell, companion
@@ -70,6 +75,8 @@ contains
     !> The operator whole on every rank: its cost on one rank, each rank multiplying its share of
     !> a batch, ceil(n_solves / P) of the n_solves vectors, with their whole copies
     logical, intent(in), optional :: replicated
+    !> The solves' Krylov tolerance (default: the one the iteration counts were fitted at)
+    real(dp), intent(in), optional :: krylov_rtol
     type(job_estimate_t) :: e
     class(multipole_operator_t), allocatable :: op
     type(job_size_t) :: size
@@ -127,6 +134,10 @@ contains
       e%iterations = ceiling(shell_iterations(1) * real(max(solve_beads, 1_i8), dp)**shell_iterations(2))
     else
       e%iterations = ceiling(full_iterations(1) * real(max(solve_beads, 1_i8), dp)**full_iterations(2))
+    end if
+    if (present(krylov_rtol)) then
+      if (krylov_rtol > 0.0_dp .and. krylov_rtol < fitted_rtol) &
+        e%iterations = ceiling(e%iterations * log(krylov_rtol) / log(fitted_rtol))
     end if
     products = real(n_solves, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
     low_products = real(n_solves, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)

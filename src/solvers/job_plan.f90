@@ -17,12 +17,17 @@ module beadmob_job_plan
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
   use beadmob_friction_settings, only: friction_settings_t, automatic_shell_layers
   use beadmob_job_defaults, only: is_set
+  use beadmob_pfft_operator, only: pfft_expected_error, pfft_radius_for
+  use beadmob_strings, only: str, str_significant
   implicit none
   private
-  public :: job_plan_t, make_job_plan, choose_operator, operator_spans
+  public :: job_plan_t, make_job_plan, choose_operator, operator_spans, requested_accuracy, operator_share
 
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8
+  !> The share of an accuracy target that an approximate operator may take (requested_accuracy):
+  !> the rest is the truncation's, whose settings the target chose (accuracy_choice.f90)
+  real(dp), parameter :: operator_share = 0.1_dp
 
   type :: job_plan_t
     integer(i8) :: model_beads = 0
@@ -43,6 +48,11 @@ module beadmob_job_plan
                                            [3, 3])
     !> direct, fft, pfft or dense
     character(len=16) :: operator_name = ''
+    !> The pfft operator's near radius (d): the settings', or raised so that its far field meets
+    !> the accuracy the job asks for (choose_operator)
+    real(dp) :: pfft_near_radius = 0.0_dp
+    !> Why this operator (and radius): a line for the dry run, the progress and the result file
+    character(len=:), allocatable :: operator_reason
     !> The operator whole on every rank, batches of products dealt out to the ranks
     !> (replicated_operator.F90; choose_replication)
     logical :: replicated_products = .false.
@@ -112,7 +122,8 @@ contains
 
     call choose_solve_frame(ctx, settings, plan, err)
     if (err%failed) return
-    call choose_operator(settings, plan%solve_centres, plan%n_ranks, plan%n_solves, shell, plan%operator_name, err)
+    call choose_operator(settings, plan%solve_centres, plan%n_ranks, plan%n_solves, shell, plan%operator_name, err, &
+                         plan%pfft_near_radius, plan%operator_reason)
     if (err%failed) return
     if (plan%operator_name == 'dense') then
       plan%n_solves = count(settings%motions)
@@ -124,8 +135,8 @@ contains
                                  operator_spans(plan%solve_centres, plan%operator_name, settings), plan%on_lattice, &
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
-                                 settings%pfft_near_radius, fft_mirrors(plan%solve_centres, settings), &
-                                 plan%replicated_products)
+                                 plan%pfft_near_radius, fft_mirrors(plan%solve_centres, settings), &
+                                 plan%replicated_products, solve_rtol(settings))
   end subroutine make_job_plan
 
   !> The spans (sites per axis less one) an operator's cost follows: the lattice box of the solve
@@ -229,6 +240,28 @@ contains
     call move_alloc(candidate, plan%solve_centres)
   end subroutine choose_solve_frame
 
+  !> The accuracy a job asks of an approximate operator, relative to the largest friction or
+  !> mobility entry (0: none): with an accuracy target, operator_share of it (the rest is the
+  !> truncation's, whose settings the target chose); otherwise the Krylov tolerance of the solves
+  !> (krylov_rtol, or -ksp_rtol), the accuracy a user asks of the friction by it. The default
+  !> tolerance (1e-3) is above the pfft far field's expected error at its default near radius
+  !> (pfft_expected_error, 5e-4): a default run keeps its operator.
+  pure real(dp) function requested_accuracy(settings)
+    type(friction_settings_t), intent(in) :: settings
+    if (settings%accuracy > 0.0_dp) then
+      requested_accuracy = operator_share * settings%accuracy
+    else
+      requested_accuracy = solve_rtol(settings)
+    end if
+  end function requested_accuracy
+
+  !> The Krylov tolerance the solves use: -ksp_rtol's when given, else krylov_rtol.
+  pure real(dp) function solve_rtol(settings)
+    type(friction_settings_t), intent(in) :: settings
+    solve_rtol = settings%krylov_rtol
+    if (settings%krylov_rtol_on_command_line .and. settings%ksp_rtol_value > 0.0_dp) solve_rtol = settings%ksp_rtol_value
+  end function solve_rtol
+
   !> The operator for a job: as asked, or for 'auto' the one whose estimated wall time is the
   !> smaller (job_estimate.f90, the dry run's cost model: set-up, the solves' products and the
   !> error bar's companion on n_ranks ranks, for the n_solves solves the job's symmetries leave):
@@ -240,39 +273,81 @@ contains
   !> iterations pile up and an exact solve of a few thousand unknowns is cheap
   !> (bench/offlattice/high_order.md: 3-8 beads at L = 8 ... 16 run 1.45-3.8x faster; bodies with many
   !> symmetric beads keep the Krylov path, which wins there).
-  subroutine choose_operator(settings, centres, n_ranks, n_solves, shell, chosen, err)
+  !> The pfft operator approximates the far field (theory.md T16): when the job asks for more
+  !> accuracy than it is expected to give at the settings' near radius (requested_accuracy,
+  !> pfft_expected_error), its near radius is raised until it does (pfft_radius_for; not a radius
+  !> given by -pfft_near_radius), and 'auto' weighs the pfft operator at that radius against the
+  !> direct one. near_radius: the pfft operator's; reason: why this operator, in words.
+  subroutine choose_operator(settings, centres, n_ranks, n_solves, shell, chosen, err, near_radius, reason)
     type(friction_settings_t), intent(in) :: settings
     real(dp), intent(in) :: centres(:, :)
     integer, intent(in) :: n_ranks, n_solves
     logical, intent(in) :: shell       ! the solve beads are a shell model's (its iteration counts)
     character(len=*), intent(out) :: chosen
     type(error_t), intent(inout) :: err
+    real(dp), intent(out), optional :: near_radius
+    character(len=:), allocatable, intent(out), optional :: reason
     character(len=4) :: fast
+    character(len=:), allocatable :: why
     logical :: on_lattice, mirrors(3)
+    real(dp) :: radius, wanted, fast_seconds, direct_seconds
+    on_lattice = on_unit_lattice(centres)
+    ! The pfft operator's near radius: the settings', raised for the accuracy asked for.
+    radius = settings%pfft_near_radius
+    wanted = requested_accuracy(settings)
+    if (.not. settings%pfft_near_radius_given .and. .not. on_lattice) &
+      radius = min(pfft_radius_for(settings%pfft_stencil, radius, wanted), max(radius, diameter(centres)))
+    why = ''
     select case (trim(settings%operator_name))
     case ('direct', 'fft', 'pfft', 'dense')
       chosen = settings%operator_name
+      why = 'as asked (-operator ' // trim(chosen) // ')'
     case ('auto')
-      on_lattice = on_unit_lattice(centres)
       mirrors = fft_mirrors(centres, settings)   ! once, for both estimates
       fast = merge('fft ', 'pfft', on_lattice)
       if (size(centres, 2) <= dense_max_beads .and. &
           size(centres, 2) * basis_size(settings%multipole_order, settings%potential_order) <= dense_max_unknowns) then
         chosen = 'dense'
-      else if (estimated_seconds(trim(fast)) < estimated_seconds('direct')) then
-        chosen = fast
+        why = 'auto: at most ' // str(dense_max_beads) // ' beads, solved exactly'
       else
-        chosen = 'direct'
+        fast_seconds = estimated_seconds(trim(fast))
+        direct_seconds = estimated_seconds('direct')
+        if (fast_seconds < direct_seconds) then
+          chosen = fast
+        else
+          chosen = 'direct'
+        end if
+        why = 'auto: the smaller estimated time (' // trim(fast) // ' ' // str_significant(fast_seconds, 2) // &
+              ' s, direct ' // str_significant(direct_seconds, 2) // ' s)'
       end if
     case default
       chosen = ''
       call raise(err, "-operator must be 'direct', 'fft', 'pfft', 'dense' or 'auto', got '" // &
                  trim(settings%operator_name) // "'")
     end select
+    if (chosen /= 'pfft') radius = 0.0_dp
+    if (radius > settings%pfft_near_radius) then
+      why = why // '; near radius ' // str_significant(radius, 3) // ' d instead of ' // &
+            str_significant(settings%pfft_near_radius, 3) // ' d: the far field''s expected error there, ' // &
+            str_significant(pfft_expected_error(settings%pfft_stencil, settings%pfft_near_radius), 2) // &
+            ', is above the ' // str_significant(wanted, 2) // ' asked for'
+    else if (chosen == 'direct' .and. .not. on_lattice .and. settings%operator_name == 'auto' .and. &
+             pfft_expected_error(settings%pfft_stencil, settings%pfft_near_radius) > wanted) then
+      why = why // '; the pfft operator weighed at the near radius ' // str_significant(radius_for_pfft(), 3) // &
+            ' d, where its far field meets the ' // str_significant(wanted, 2) // ' asked for'
+    end if
+    if (present(near_radius)) near_radius = radius
+    if (present(reason)) reason = why
 
   contains
 
-    !> The dry run's wall time of the job with this operator.
+    !> The near radius the pfft operator was weighed at (radius is 0 once the direct operator won).
+    real(dp) function radius_for_pfft()
+      radius_for_pfft = min(pfft_radius_for(settings%pfft_stencil, settings%pfft_near_radius, wanted), &
+                            max(settings%pfft_near_radius, diameter(centres)))
+    end function radius_for_pfft
+
+    !> The dry run's wall time of the job with this operator (the pfft operator at `radius`).
     real(dp) function estimated_seconds(operator_name)
       character(len=*), intent(in) :: operator_name
       type(job_estimate_t) :: e
@@ -280,8 +355,15 @@ contains
                        operator_spans(centres, operator_name, settings), on_lattice, &
                        settings%multipole_order, settings%potential_order, operator_name, n_ranks, n_solves, shell, &
                        1.0_dp, settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions), &
-                       settings%pfft_near_radius, mirrors)
+                       radius, mirrors, krylov_rtol=solve_rtol(settings))
       estimated_seconds = e%seconds_total
     end function estimated_seconds
   end subroutine choose_operator
+
+  !> The largest distance between two of the beads (d), bounded from their box's diagonal: beyond
+  !> it a near radius makes every pair exact.
+  pure real(dp) function diameter(centres)
+    real(dp), intent(in) :: centres(:, :)
+    diameter = norm2(maxval(centres, dim=2) - minval(centres, dim=2)) + 1.0_dp
+  end function diameter
 end module beadmob_job_plan

@@ -70,6 +70,9 @@ module beadmob_rigid_body_solve
     !> of the CG solves (largest over this call's solves; a lower bound of the true ratio,
     !> close after the iterations a solve takes); 0 when nothing was solved here
     real(dp) :: condition_estimate = 0.0_dp
+    !> lambda_min of M A from the same Lanczos coefficients (smallest over this call's solves; an
+    !> upper estimate of the true one); 0 when nothing was solved here
+    real(dp) :: smallest_eigenvalue = 0.0_dp
     !> What the solver error of the friction is at most (theory.md T5, "Solver error bound"):
     !> |zeta_mn - zeta_mn(exact solve)| <= bound sqrt(zeta_mm zeta_nn) between computed motions
     !> (-1: no bound, see solver_error_bound)
@@ -437,6 +440,8 @@ contains
       stats%converged_reason(m) = why
       solver%solved(m) = .true.
       if (smallest > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, largest / smallest)
+      if (smallest > 0.0_dp .and. (stats%smallest_eigenvalue <= 0.0_dp .or. smallest < stats%smallest_eigenvalue)) &
+        stats%smallest_eigenvalue = smallest
       call true_residual(m)
       solver%saved(m) = saved_solve_t(its, why, stats%true_relative_residual(m))
       if (solver%saving) call save_checkpoint(solver, m, stats%source)

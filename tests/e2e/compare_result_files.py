@@ -21,13 +21,14 @@ from solver_promise import bound, entry_scale
 #: Of this run: its date, ranks, timings and memory, the plan's estimate, which is per rank, and
 #: whether the ranks shared the products or each had the whole operator (the same products).
 RUN_SPECIFIC = {"created", "mpi_ranks", "phase_seconds", "peak_memory_bytes", "phase_peak_memory_bytes",
-                "estimated_peak_memory_bytes", "estimated_seconds", "replicated_products"}
+                "estimated_peak_memory_bytes", "estimated_seconds", "replicated_products",
+                "operator_choice", "operator_error_seconds"}
 #: Each run's record of its own solve: compared only through the bounds they give.
 SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symmetry_error", "off_pattern",
                       "plain_symmetry_error", "variational_correction", "companion_iterations",
                       "companion_true_relative_residual", "solve_natural_relative_residual",
                       "companion_natural_relative_residual", "condition_estimate", "companion_condition_estimate",
-                      "solver_error_bound", "companion_solver_error_bound"}
+                      "solver_error_bound", "companion_solver_error_bound", "preconditioned_smallest_eigenvalue"}
 #: Eigenvalues, condition number and asymmetry of the frictions: functions of the frictions
 #: compared below (their 0/1 flags are compared exactly).
 SOLVER_DIAGNOSTICS |= {f"{prefix}_{name}" for prefix in ("friction", "multipole_friction")
@@ -53,12 +54,20 @@ EXTRAPOLATED = {"extrapolated_body_mobility", "extrapolated_coefficients"}
 ERROR_BARS = {"body_mobility_error", "coefficient_error", "extrapolated_coefficient_error"}
 SCALED_ERROR_BARS = {"scaled_body_mobility_error", "scaled_coefficient_error",
                      "scaled_extrapolated_coefficient_error", "estimated_error", "estimated_extrapolated_error",
-                     "accuracy_estimated_error"}
+                     "accuracy_estimated_error", "truncation_estimated_error"}
 #: Per-bead forces and torques: the plain solutions, first order in the solver error. The
 #: energy-norm error of a solution is sqrt(bound) of its right-hand side's (theory.md T5);
 #: one bead's share of it is compared on the largest bead's scale with 10 for the passage from
 #: the energy norm to single entries (the preconditioner's condition at L <= 3, theory.md T11).
 BEAD_RESULTS = {"bead_forces"}
+#: The pfft far field's measured error (docs/theory.md T16): quadratic forms of the solutions in
+#: E = A - A~ and their spread over the sampled rows, first order in the solutions' error: as the
+#: bead forces, 10 x 2 sqrt(bound / 2) on the scale of each item's largest entry.
+OPERATOR_ERRORS = {"operator_error", "operator_error_friction", "operator_error_scaled", "operator_friction_change",
+                   "operator_friction_standard_error", "operator_friction_second_order",
+                   "operator_body_mobility_change", "operator_body_mobility_error",
+                   "scaled_operator_body_mobility_error", "operator_coefficient_error", "operator_error_row_terms",
+                   "operator_error_row_sizes"}
 
 
 def collect(path):
@@ -104,6 +113,9 @@ def tolerance(key, x, first, bounds):
         return order_l * entry_scale(hydro("multipole_friction")), f"{order_l:.1e} sqrt(zeta_mm zeta_nn)"
     if name == "companion_friction" and companion is not None:
         return companion * entry_scale(x), f"{companion:.1e} sqrt(zeta_mm zeta_nn)"
+    if name in OPERATOR_ERRORS and order_l is not None:
+        rel = 10 * 2 * np.sqrt(order_l / 2)
+        return rel * np.nanmax(np.abs(x)), f"{rel:.1e} relative"
     rel_l = inverse_tolerance(order_l, hydro("multipole_friction"))
     rel_c = inverse_tolerance(companion, hydro("companion_friction")) if companion is not None else None
     if name in ORDER_L_INVERSES and rel_l is not None:
