@@ -48,6 +48,7 @@ that file is kept below the regenerated part."""
 import argparse
 import datetime
 import json
+import shlex
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -199,11 +200,22 @@ def solve(exe, body, index, form, budget, folder):
         _, wall = run(exe, shape + f"&continuum time_budget = {budget:g} /\n", folder, fatal=False,
                       options=("-keep_checkpoint",))
         meta["wall"] = wall
+        meta.update(solve_record(folder / "job.h5"))
     except JobFailed as failure:
         lines = [line.strip() for line in str(failure).splitlines() if line.strip() and not line.startswith("---")]
         meta["failed"] = next((line for line in lines if "error" in line.lower()), lines[-1] if lines else "?")
     (folder / "meta.json").write_text(json.dumps(meta, indent=1))
     return meta
+
+
+def solve_record(path):
+    """What a freshly solved job's file says about its ladder and samples (kept in meta.json, since a
+    refit rewrites the file: its estimate is then the uncalibrated one of the kept ladder)."""
+    with h5py.File(path) as f:
+        c = f["continuum"]
+        return {"estimated": float(c.attrs["estimated_seconds"]),
+                "calibration": float(c.attrs.get("estimate_calibration", np.nan)),
+                "sample_seconds": float(np.sum(c["sample_seconds"][()])), "result_git_hash": f.attrs["git_hash"].decode()}
 
 
 def refit(exe, folder):
@@ -214,7 +226,11 @@ def refit(exe, folder):
     if not meta_path.exists() or not (folder / "job.h5.continuum_checkpoint").exists():
         return None
     meta = json.loads(meta_path.read_text())
+    if "estimated" not in meta and (folder / "job.h5").exists():
+        meta.update(solve_record(folder / "job.h5"))
     text = (folder / "job.nml").read_text().split("\n", 1)[1]      # without the &run line run() writes
+    if (folder / "job.log").exists() and not (folder / "solve.log").exists():
+        (folder / "job.log").rename(folder / "solve.log")           # what the solve printed stays
     try:
         _, wall = run(exe, text, folder, fatal=False, options=("-keep_checkpoint",), fresh=False)
     except JobFailed as failure:
@@ -240,8 +256,13 @@ def analyse(body, form, folder):
     samples = read_samples(path)
     with h5py.File(path) as f:
         c = f["continuum"]
-        row.update(diameters=c["bead_diameters"][()], beads=int(np.max(c.attrs["sample_beads"])),
-                   estimated=float(c.attrs["estimated_seconds"]), converged=int(c.attrs["all_converged"]))
+        chosen_by = c.attrs.get("ladder_chosen_by", b"time_budget").decode()
+        levels, beads = np.asarray(c.attrs["sample_level"]), np.asarray(c.attrs["sample_beads"])
+        row.update(diameters=c["bead_diameters"][()], beads=int(np.max(beads)), coarsest=int(np.min(beads[levels == 1])),
+                   estimated=meta.get("estimated", float(c.attrs["estimated_seconds"]) if chosen_by != "checkpoint"
+                                      else np.nan),
+                   converged=int(c.attrs["all_converged"]), git_hash=f.attrs["git_hash"].decode(), chosen_by=chosen_by,
+                   sample_seconds=float(np.sum(c["sample_seconds"][()])))
     q = np.zeros((6, 6))
     q[:3, :3] = q[3:, 3:] = rotation
     turned = q.T @ samples.mobility @ q
@@ -280,26 +301,29 @@ def ratio_text(bar, error):
 
 
 def tables(rows):
-    lines = ["| body | form | bead diameters | finest beads | held | median bar / error | worst error % (its bar %) | "
-             "wall (s) | estimated (s) |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| body | form | bead diameters | beads (coarsest - finest) | held | median bar / error | worst error % (its bar %) | "
+             "wall (s) | estimated (s) | samples (s) | result file |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     entry_lines = ["| body | form | " + " | ".join(ENTRIES) + " |", "|---|---|" + "---|" * 6]
     for row in rows:
         body, form = row["body"], row["form"]
         head = f"| {body.label} | {form} |"
         if row.get("missing"):
-            lines.append(head + " not run | | | | | | |")
+            lines.append(head + " not run | | | | | | | | |")
             continue
         if "failed" in row["meta"]:
-            lines.append(head + f" failed: {row['meta']['failed']} | | | | | | |")
+            lines.append(head + f" failed: {row['meta']['failed']} | | | | | | | | |")
             continue
         entries = row["entries"]
         held = sum(abs(e["error"]) <= e["bar"] for e in entries)
         ratios = [e["bar"] / abs(e["error"]) if e["error"] else np.inf for e in entries]
         worst = max(entries, key=lambda e: abs(e["error"]) / e["exact"])
         d = row["diameters"]
-        lines.append(f"{head} {d[0]:.4f} - {d[-1]:.4f} | {row['beads']} | {held} / {len(entries)} | "
+        lines.append(f"{head} {d[0]:.4f} - {d[-1]:.4f} | {row['coarsest']} - {row['beads']} | {held} / {len(entries)} | "
                      f"{np.median(ratios):.2f} | {worst['name']} {percent(worst['error'] / worst['exact'])} "
-                     f"({percent(worst['bar'] / worst['exact'])}) | {row['meta']['wall']:.0f} | {row['estimated']:.0f} |")
+                     f"({percent(worst['bar'] / worst['exact'])}) | {row['meta']['wall']:.0f} | {row['estimated']:.0f}"
+                     + (f" (x{row['meta']['calibration']:.1f})" if "calibration" in row["meta"] else "") + f" | "
+                     f"{row['sample_seconds']:.0f} | {row['git_hash'][:7]}, "
+                     f"{'re-extrapolated' if row['chosen_by'] == 'checkpoint' else 'solved'} |")
         cells = {e["name"]: (f"{percent(e['error'] / e['exact'])} / {percent(e['bar'] / e['exact'])}"
                              + ("" if abs(e["error"]) <= e["bar"] else " **miss**")) for e in entries}
         entry_lines.append(head + " " + " | ".join(cells.get(name, "-") for name in ENTRIES) + " |")
@@ -411,7 +435,7 @@ def main():
             rotation, centre = placement(i)
             print(body.key, form, body.label, "exact", body.exact(), "centre", centre if form == "mesh" else "-")
         return
-    keep = Path(arguments.reuse or arguments.keep)
+    keep = Path(arguments.reuse or arguments.keep).resolve()
     rows = []
     for i, body, form in selected:
         folder = keep / f"{body.key}-{form}"
@@ -427,11 +451,7 @@ def main():
     body_table, entry_table = tables(rows)
     metas = [row["meta"] for row in rows if "meta" in row]
     budgets = sorted({m["budget"] for m in metas})
-    command = "bench/continuum/coverage.py" + ("" if budgets == [120.0] else f" --budget {budgets[0]:g}" if budgets else "")
-    if arguments.bodies != parser.get_default("bodies"):
-        command += f" --bodies {arguments.bodies}"
-    if arguments.forms != parser.get_default("forms"):
-        command += f" --forms {arguments.forms}"
+    command = " ".join(["bench/continuum/coverage.py", *(shlex.quote(a) for a in sys.argv[1:])])
     dates = sorted({m["date"] for m in metas})
     sources = sorted({m["source"] for m in metas})
     refits = sorted({m["refit_source"] for m in metas if "refit_source" in m})
@@ -441,11 +461,16 @@ def main():
             f"{', '.join(sources)}; budgets {', '.join(f'{b:g}' for b in budgets)} s"
             + (f"; the extrapolations redone from the jobs' checkpoints (no solve) by the build of {', '.join(refits)}"
                if refits else "")
-            + (f"; table rerun from the kept jobs with --reuse" if arguments.reuse else "") + ").\n\n"
+            + ").\n\n"
             + "\n\n".join(paragraphs[1:6]) + "\n\n## Summary\n\n" + summary(rows)
             + "\n\n## Per body\n\n`held`: the principal diagonal entries with an exact value inside the bar; "
-              "`worst error`: the largest |value / exact - 1| with its bar; `estimated`: the job's estimate of its ladder "
-              "(the budget's measure).\n\n" + body_table
+              "`beads`: the fewest of the coarsest level's samples and the most of the finest's (below 200 on the coarsest: "
+              "the cheapest ladder the job allows, whose coarsest level must hold 100); `worst error`: the largest "
+              "|value / exact - 1| with its bar; `wall`: the solving job's whole process; `estimated`: "
+              "its estimate of its ladder (the dry run's, calibrated by the pilot, whose factor is in brackets: what the "
+              "budget was held against); "
+              "`samples`: the solve time of the samples in the file; `result file`: the build that wrote it, and whether "
+              "it solved the samples or re-extrapolated kept ones (-keep_checkpoint).\n\n" + body_table
             + "\n\n## Per entry\n\nerror % / bar %, both relative to the exact value (t1 t2 t3: translation along the "
               "principal axes a, b, c, the two spheres' line of centres first; r1 r2 r3: rotation about them).\n\n"
             + entry_table + "\n")
