@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """coverage.py [--exe BUILD/beadmob] [--budget S] [--bodies KEY,...] [--forms analytic,mesh] [--keep DIR]
-[--reuse DIR] [--out FILE] [--list]: does the continuum job's error bar hold? (issue 44 item 3)
+[--reuse DIR] [--out FILE] [--list]: does the continuum job's error bar hold?
 
 Twelve bodies with exact mobilities, each a continuum job on 2 ranks with `&continuum time_budget =
 S /` (default 120 s; every other setting default: 7 levels x 4 offsets, 32 moment fills), in two
@@ -14,8 +14,8 @@ forms where beadmob has the analytic shape:
   1.00018, so that the polyhedron's volume is the ellipsoid's: within 1.8e-4 of the surface in the
   sphere's frame), turned by a random rotation R and moved to a random centre c (x = R p + c;
   p the principal coordinates). R is the unit quaternion of 4 standard normals and c uniform in
-  [-3, 3]^3, both from numpy's default_rng([44, i]), i the body's place in the list below (seed 44:
-  the issue), so a body keeps its placement whichever subset runs; R and c are in each job's
+  [-3, 3]^3, both from numpy's default_rng([44, i]), i the body's place in the list below (a fixed
+  seed), so a body keeps its placement whichever subset runs; R and c are in each job's
   meta.json.
 
 Bodies (`--bodies` keys): sphere; prolate spheroids 2:1, 4:1, 10:1 (semi-axes a:1:1) and oblate
@@ -456,7 +456,7 @@ def main():
     sources = sorted({m["source"] for m in metas})
     refits = sorted({m["refit_source"] for m in metas if "refit_source" in m})
     paragraphs = __doc__.split("\n\n")
-    text = (f"# Coverage of the continuum job's error bar (issue 44 item 3)\n\n"
+    text = (f"# Coverage of the continuum job's error bar\n\n"
             f"Written by `{command}` (2 ranks, this machine; jobs solved {', '.join(dates)} with the build of "
             f"{', '.join(sources)}; budgets {', '.join(f'{b:g}' for b in budgets)} s"
             + (f"; the extrapolations redone from the jobs' checkpoints (no solve) by the build of {', '.join(refits)}"
