@@ -72,6 +72,9 @@ module beadmob_pfft_operator
     real(dp) :: frame(3, 3) = 0.0_dp
     real(dp), allocatable :: turn(:, :, :)
     integer, allocatable :: group_first(:), group_last(:), group_degree(:)
+    !> The axial table of the exact pair blocks (theory.md T15), kept for the far field's error
+    !> measured on exact rows after the solves (solvers/operator_error.F90)
+    type(axial_table_t) :: axial
     logical :: created = .false.
   contains
     procedure :: create => create_pfft
@@ -384,7 +387,6 @@ contains
     type(error_t), intent(inout) :: err
     integer, intent(in), optional :: companion_unknowns(:)
     integer, parameter :: batch = 256   ! pairs per BLAS product: its scratch stays in cache
-    type(axial_table_t) :: axial
     real(dp), allocatable :: kernel(:, :, :, :), gathered(:, :), pair_weights(:, :), approximate(:, :), block(:, :), &
                              lower_sign(:)
     integer, allocatable :: near(:), pair_row(:), pair_column(:), pair_offset(:), upper_row(:), upper_column(:)
@@ -397,7 +399,7 @@ contains
     nb = op%block_size
     s = op%stencil
     call upper_triangle(basis, upper_row, upper_column, lower_sign)
-    call make_axial_table(basis, axial, comm)
+    call make_axial_table(basis, op%axial, comm)
     ! K(d) for every displacement a near pair's stencils can meet, upper triangles
     reach = ceiling(op%near_radius) + s
     allocate (kernel(size(upper_row), -reach:reach, -reach:reach, -reach:reach), block(nb, nb))
@@ -407,7 +409,7 @@ contains
           if (dx == 0 .and. dy == 0 .and. dz == 0) then
             block = op%self_block
           else
-            call rotated_block(axial, real([dx, dy, dz], dp), block)
+            call rotated_block(op%axial, real([dx, dy, dz], dp), block)
           end if
           do u = 1, size(upper_row)
             kernel(u, dx, dy, dz) = block(upper_row(u), upper_column(u))
@@ -478,7 +480,7 @@ contains
           if (pair_row(p) == pair_column(p)) then
             block = op%self_block
           else
-            call rotated_block(axial, centres(:, pair_row(p)) - centres(:, pair_column(p)), block)
+            call rotated_block(op%axial, centres(:, pair_row(p)) - centres(:, pair_column(p)), block)
           end if
           do u = 1, size(upper_row)
             block(upper_row(u), upper_column(u)) = block(upper_row(u), upper_column(u)) - approximate(u, k)

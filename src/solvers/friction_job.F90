@@ -29,6 +29,7 @@ module beadmob_friction_job
   use beadmob_friction_settings, only: friction_settings_t
   use beadmob_job_plan, only: job_plan_t, make_job_plan
   use beadmob_operator_error, only: operator_sample_t, sample_operator_error, operator_error_rows
+  use beadmob_pfft_operator, only: pfft_operator_t
   implicit none
   private
   public :: friction_settings_t, friction_result_t, friction_of_model, friction_of_plan, phase_names, companion_orders
@@ -332,8 +333,14 @@ contains
     subroutine sample_far_field_error()
       integer :: rows
       rows = operator_error_rows(size(centres, 2, kind=i8), basis%size, settings%operator_error_rows)
-      call sample_operator_error(ctx%comm, basis, self, centres, first, count, solver%solution, solver%rhs, &
-                                 solver%residual, rows, job_result%operator_sample)
+      select type (op)
+      type is (pfft_operator_t)   ! its axial table, made for its near pairs
+        call sample_operator_error(ctx%comm, basis, self, centres, first, count, solver%solution, solver%rhs, &
+                                   solver%residual, rows, job_result%operator_sample, op%axial)
+      class default
+        call sample_operator_error(ctx%comm, basis, self, centres, first, count, solver%solution, solver%rhs, &
+                                   solver%residual, rows, job_result%operator_sample)
+      end select
       call progress_line(report, 'far-field error: ' // str(rows) // ' exact rows of ' // str(size(centres, 2)) // &
                          ' beads (' // progress_seconds(job_result%operator_sample%seconds) // ' s)')
     end subroutine sample_far_field_error

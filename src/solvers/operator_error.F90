@@ -102,9 +102,10 @@ contains
   !> all beads of the solve, in its frame; self_block: the single-bead block S. The rows are drawn
   !> from every bead's share of the solutions (gathered on every rank); each rank sums the exact
   !> pair products of its own beads into every drawn row, the sums are added over the ranks, and
-  !> the owner of each row forms its terms.
+  !> the owner of each row forms its terms. table: the basis's axial table when the operator kept
+  !> one (made here otherwise).
   subroutine sample_operator_error(comm, basis, self_block, centres, first_bead, n_local, solution, rhs, residual, &
-                                   draws, sample)
+                                   draws, sample, table)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: self_block(:, :), centres(:, :)
@@ -112,6 +113,7 @@ contains
     Vec, intent(in) :: solution(6), rhs(6), residual(6)
     integer, intent(in) :: draws
     type(operator_sample_t), intent(out) :: sample
+    type(axial_table_t), intent(in), optional :: table
     type(axial_table_t) :: axial
     type(sparse_axial_t) :: sparse
     real(dp), allocatable :: q(:, :, :), exact(:, :, :), factor(:, :), difference(:, :), solved(:, :)
@@ -168,7 +170,11 @@ contains
     sample%rows = size(rows)
     sample%row = rows
     allocate (exact(nb, 6, size(rows)))
-    call make_axial_table(basis, axial, comm)
+    if (present(table)) then
+      axial = table
+    else
+      call make_axial_table(basis, axial, comm)
+    end if
     call make_sparse_axial(axial, sparse)
     ! (A q)_i of every sampled row i, this rank's columns j
     exact = 0.0_dp
