@@ -235,8 +235,13 @@ def refit(exe, folder):
         _, wall = run(exe, text, folder, fatal=False, options=("-keep_checkpoint",), fresh=False)
     except JobFailed as failure:
         sys.exit(f"refit of {folder} failed:\n{failure}")
-    if "resum" not in (folder / "job.log").read_text().lower():
-        print(f"warning: {folder}: the refit's log does not say it resumed from the checkpoint", flush=True)
+    if "resuming" not in (folder / "job.log").read_text():
+        # not resumed (a mesh's checkpoint is keyed by the mesh file's absolute path: a moved folder
+        # starts over): the job solved its samples again, so it is the solve now
+        print(f"warning: {folder}: the checkpoint was not resumed; solved again", flush=True)
+        meta.update(wall=wall, source=build_version(exe), date=datetime.date.today().isoformat(),
+                    resolved_by_refit=True, **solve_record(folder / "job.h5"))
+        meta.pop("estimated_from", None)
     meta.update(refit_source=build_version(exe), refit_wall=wall, refit_date=datetime.date.today().isoformat())
     meta_path.write_text(json.dumps(meta, indent=1))
     return meta
@@ -372,6 +377,15 @@ def summary(rows):
                           f"(bar / error {e['bar'] / abs(e['error']):.2f}; 2 sigma {percent(2 * e['sigma'] / e['exact'])}, "
                           f"spread {percent(e['spread'] / e['exact'])}, volume {percent(e['volume_term'] / e['exact'])})"
                           for e in misses)
+    closest = sorted((e for e in every if abs(e["error"]) <= e["bar"]), key=lambda e: e["bar"] / abs(e["error"]))[:8]
+    if closest:
+        text += ("\n\nClosest to a miss (bar / error; the bar's parts 2 sigma, spread, volume term as % of the exact value): "
+                 + "; ".join(f"{e['row']['body'].label} {e['row']['form']} {e['name']} {e['bar'] / abs(e['error']):.2f} "
+                             f"(error {percent(e['error'] / e['exact'])} %, bar {percent(e['bar'] / e['exact'])} %: "
+                             f"{percent(2 * e['sigma'] / e['exact'])}, {percent(e['spread'] / e['exact'])}, "
+                             f"{percent(e['volume_term'] / e['exact'])})" for e in closest)
+                 + f". Entries with bar / error below 1.5: {sum(e['bar'] < 1.5 * abs(e['error']) for e in every)}; below 2: "
+                 f"{sum(e['bar'] < 2 * abs(e['error']) for e in every)}.")
     if failed or missing:
         text += "\n\nNot in the totals: " + "; ".join(
             f"{row['body'].label} ({row['form']}) {'failed: ' + row['meta']['failed'] if 'meta' in row else 'not run'}"
