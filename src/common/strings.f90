@@ -3,7 +3,7 @@ module beadmob_strings
   use beadmob_kinds, only: dp, i4, i8
   implicit none
   private
-  public :: str, str_approx, str_significant, either
+  public :: str, str_approx, str_significant, either, lower_case
 
   interface str
     module procedure str_int4, str_int8, str_real, str_logical
@@ -132,4 +132,15 @@ contains
       text = if_false
     end if
   end function either
+
+  !> `text` with A-Z turned to a-z (file extensions, keywords, in any case).
+  pure function lower_case(text) result(lowered)
+    character(len=*), intent(in) :: text
+    character(len=len(text)) :: lowered
+    integer :: k
+    lowered = text
+    do k = 1, len(text)
+      if (text(k:k) >= 'A' .and. text(k:k) <= 'Z') lowered(k:k) = achar(iachar(text(k:k)) + 32)
+    end do
+  end function lower_case
 end module beadmob_strings

@@ -9,6 +9,7 @@ module beadmob_command_line
   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
+  use beadmob_strings, only: lower_case
   use beadmob_input_config, only: run_config_t
   use beadmob_friction_settings, only: friction_settings_t
   implicit none
@@ -188,7 +189,7 @@ contains
       integer :: n_word
       n_word = len(word)
       looks_like_input = .false.
-      if (n_word > 4) looks_like_input = lower(word(n_word - 3:)) == '.nml'
+      if (n_word > 4) looks_like_input = lower_case(word(n_word - 3:)) == '.nml'
       if (.not. looks_like_input) then
         inquire (file=word, exist=exists)
         looks_like_input = exists
@@ -228,15 +229,6 @@ contains
     end do
   end subroutine option_value_rule
 
-  pure function lower(text) result(lowered)
-    character(len=*), intent(in) :: text
-    character(len=len(text)) :: lowered
-    integer :: k
-    lowered = text
-    do k = 1, len(text)
-      if (text(k:k) >= 'A' .and. text(k:k) <= 'Z') lowered(k:k) = achar(iachar(text(k:k)) + 32)
-    end do
-  end function lower
 
   !> Every argument that is an option but not one of beadmob's is PETSc's, unless it is so close
   !> to one of beadmob's that it is a misspelling of it: then an error that names both, before

@@ -15,7 +15,7 @@ module beadmob_triangle_mesh
   use, intrinsic :: iso_fortran_env, only: int16, int32, real32
   use beadmob_kinds, only: dp, i8
   use beadmob_errors, only: error_t, raise
-  use beadmob_strings, only: str, str_significant
+  use beadmob_strings, only: str, str_significant, lower_case
   use beadmob_spatial_index, only: sort_keys, lower_bound
   use beadmob_lattice_fill, only: reserve_sites, lattice_shift
   implicit none
@@ -581,13 +581,4 @@ contains
     edge_function = (q(1) - p(1)) * (r(2) - p(2)) - (q(2) - p(2)) * (r(1) - p(1))
   end function edge_function
 
-  pure function lower_case(text) result(lowered)
-    character(len=*), intent(in) :: text
-    character(len=len(text)) :: lowered
-    integer :: k
-    lowered = text
-    do k = 1, len(text)
-      if (text(k:k) >= 'A' .and. text(k:k) <= 'Z') lowered(k:k) = achar(iachar(text(k:k)) + 32)
-    end do
-  end function lower_case
 end module beadmob_triangle_mesh
