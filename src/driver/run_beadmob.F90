@@ -24,6 +24,7 @@ module beadmob_run
   use beadmob_job_plan, only: job_plan_t, requested_accuracy
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
   use beadmob_error_estimate, only: estimate_error, add_operator_error
+  use beadmob_flow_response, only: flow_response_of
   use beadmob_operator_error_bar, only: estimate_operator_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
@@ -179,6 +180,9 @@ contains
           job_result%estimate = estimate_error(mobility%body_mobility, companion_mobility, model%reference_length, &
                                           job_result%companion_order)
         end if
+        ! The free body in a linear flow and its bar from the companion (theory.md T19).
+        if (job_result%flow) job_result%flow_response = flow_response_of(job_result%grand_resistance, &
+          job_result%companion_grand_resistance, job_result%companion_order)
         ! The pfft far field's error, measured on a sample of rows, added to the error bar (theory.md T16).
         if (job_result%operator_sample%rows > 0 .and. job_result%diagnostics%finite .and. &
             all(config%hydrodynamics%motions)) then

@@ -23,6 +23,9 @@ module beadmob_friction_settings
     !> The pairwise lubrication correction, for pairs with centre distance <= cutoff (d)
     logical :: lubrication = default_lubrication
     real(dp) :: lubrication_cutoff = default_lubrication_cutoff
+    !> The body in an ambient linear flow too (theory.md T19): the five strain problems beside the
+    !> six motions, their grand resistance and the free body's response per unit strain
+    logical :: flow = .false.
     !> Keep the force and torque of every bead for every motion (36 numbers a bead)
     logical :: bead_forces = .false.
     !> HDF5 table cache of the lattice blocks and the lubrication corrections ('' = none, see

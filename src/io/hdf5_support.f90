@@ -26,7 +26,7 @@ module beadmob_hdf5_support
   end interface write_attribute
 
   interface write_replicated_dataset
-    module procedure write_replicated_vector, write_replicated_matrix
+    module procedure write_replicated_vector, write_replicated_matrix, write_replicated_array3
   end interface write_replicated_dataset
 
 contains
@@ -257,6 +257,15 @@ contains
     type(error_t), intent(inout) :: err
     call write_replicated(ctx, location, name, values, int(shape(values), hsize_t), err)
   end subroutine write_replicated_matrix
+
+  subroutine write_replicated_array3(ctx, location, name, values, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: location
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: values(:, :, :)
+    type(error_t), intent(inout) :: err
+    call write_replicated(ctx, location, name, values, int(shape(values), hsize_t), err)
+  end subroutine write_replicated_array3
 
   !> Small data every rank holds: rank 0 writes it, the others select nothing.
   subroutine write_replicated(ctx, location, name, values, dims, err)

@@ -203,13 +203,13 @@ contains
     type(friction_settings_t), intent(inout) :: hydro
     type(error_t), intent(inout) :: err
     integer :: multipole_order, potential_order, shell_layers, status
-    logical :: lubrication, bead_forces, use_symmetry, error_estimate
+    logical :: lubrication, bead_forces, use_symmetry, error_estimate, flow
     real(dp) :: lubrication_cutoff, accuracy, krylov_rtol
     character(len=1024) :: cache_file
     character(len=64) :: motions
     character(len=512) :: message
     namelist /hydrodynamics/ multipole_order, potential_order, lubrication, lubrication_cutoff, bead_forces, cache_file, &
-                             shell_layers, krylov_rtol, accuracy, use_symmetry, motions, error_estimate
+                             shell_layers, krylov_rtol, accuracy, use_symmetry, motions, error_estimate, flow
 
     hydro%enabled = has_group(lines, 'hydrodynamics')
     if (.not. hydro%enabled) return
@@ -226,6 +226,7 @@ contains
     use_symmetry = hydro%use_symmetry
     error_estimate = hydro%error_estimate
     motions = hydro%motions_text
+    flow = hydro%flow
     read (lines, nml=hydrodynamics, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'hydrodynamics', message))
@@ -282,7 +283,16 @@ contains
     hydro%use_symmetry = use_symmetry
     hydro%error_estimate = error_estimate
     hydro%motions_text = motions
+    hydro%flow = flow
     if (.not. err%failed) call parse_motions(motions, source, hydro%motions, err)
+    ! The flow's response needs the whole friction; its pair correction has no strain terms.
+    if (.not. err%failed .and. flow .and. .not. all(hydro%motions)) then
+      call raise(err, source // ": &hydrodynamics flow = .true. needs all six motions (the free body's response " // &
+                 "to a flow is solved with the whole friction), got motions = '" // trim(motions) // "'")
+    else if (.not. err%failed .and. flow .and. lubrication) then
+      call raise(err, source // ': &hydrodynamics flow = .true. cannot be combined with lubrication = .true.: ' // &
+                 'the pair correction (theory.md T9) has no strain terms; run the flow without it')
+    end if
   end subroutine read_hydrodynamics_group
 
   !> Every `name = value` of `group` must give a Fortran logical (.true., .false., t, f, ...):
@@ -512,6 +522,7 @@ contains
       '  krylov_rtol = ' // str(config%hydrodynamics%krylov_rtol) // new_line('a') // &
       '  use_symmetry = ' // merge('.true. ', '.false.', config%hydrodynamics%use_symmetry) // new_line('a') // &
       '  error_estimate = ' // merge('.true. ', '.false.', config%hydrodynamics%error_estimate) // new_line('a') // &
+      '  flow = ' // merge('.true. ', '.false.', config%hydrodynamics%flow) // new_line('a') // &
       "  motions = '" // trim(config%hydrodynamics%motions_text) // "'" // new_line('a') // &
       accuracy_line(config%hydrodynamics%accuracy) // cache_line(config%hydrodynamics%cache_file, all_switches) // '/' // &
       new_line('a')

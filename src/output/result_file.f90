@@ -22,6 +22,7 @@ module beadmob_result_file
   use beadmob_operator_error_bar, only: spread_factor, second_order_mid, second_order_half, coverage
   use beadmob_operator_error, only: operator_sample_t
   use beadmob_continuum_fit, only: continuum_result_t
+  use beadmob_linear_flow, only: n_strain_modes, strain_mode
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -60,6 +61,9 @@ contains
     call write_geometry(ctx, file_id, model, frame, err)
     if (present(mobility) .and. present(job_result)) &
       call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, job_result, err)
+    if (present(job_result)) then
+      if (job_result%flow) call write_flow(ctx, file_id, config, job_result, err)
+    end if
     if (present(continuum)) call write_continuum(ctx, file_id, continuum, err)
     call h5_close_file(file_id, err)
     call agree_on_error(ctx, err)
@@ -276,6 +280,65 @@ contains
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
+
+  !> The group /flow (docs/output.md; theory.md T19): the body in an ambient linear flow.
+  subroutine write_flow(ctx, file_id, config, job_result, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(run_config_t), intent(in) :: config
+    type(friction_result_t), intent(in) :: job_result
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    real(dp) :: modes(3, 3, n_strain_modes)
+    integer :: k
+    do k = 1, n_strain_modes
+      modes(:, :, k) = strain_mode(k)
+    end do
+    associate (response => job_result%flow_response, strains => job_result%strain_solves)
+    call h5_create_group(file_id, 'flow', group, err)
+    call write_attribute(group, 'method', 'the five strain modes as right-hand sides of the order-L multipole ' // &
+                         'system beside the six rigid motions; grand resistance in the variational form, free body ' // &
+                         'by its Schur complement (docs/theory.md T19)', err)
+    call write_attribute(group, 'units', 'eta = 1, lengths in d; velocity_per_strain: (U - u0(R0), Omega - Omega0) ' // &
+                         'per unit strain amplitude; stresslet_per_strain: Batchelor''s particle stresslet ' // &
+                         'amplitudes per unit strain amplitude', err)
+    call write_attribute(group, 'reference_point', 'centre of mass', err)
+    call write_attribute(group, 'strain_mode_names', 'E_1 E_2 E_3 E_4 E_5', err)
+    call write_attribute(group, 'multipole_order', config%hydrodynamics%multipole_order, err)
+    call write_attribute(group, 'companion_order', response%companion_order, err)
+    call write_attribute(group, 'response_available', merge(1, 0, response%available), err)
+    call write_attribute(group, 'strain_iterations', strains%iterations, err)
+    call write_attribute(group, 'strain_converged_reason', strains%converged_reason, err)
+    call write_attribute(group, 'strain_true_relative_residual', strains%true_relative_residual, err)
+    call write_attribute(group, 'strain_condition_estimate', strains%condition_estimate, err)
+    call write_attribute(group, 'strain_solved_together', strains%solved_together, err)
+    call write_attribute(group, 'plain_symmetry_error', strains%plain_symmetry_error, err)
+    call write_attribute(group, 'all_converged', merge(1, 0, all(strains%converged_reason > 0)), err)
+    ! C-order readers see (5, 3, 3): mode k is strain_modes[k] (symmetric, so no transpose needed).
+    call write_replicated_dataset(ctx, group, 'strain_modes', modes, err)
+    call write_replicated_dataset(ctx, group, 'grand_resistance', transpose(job_result%grand_resistance), err)
+    call write_replicated_dataset(ctx, group, 'velocity_per_strain', transpose(response%velocity_per_strain), err)
+    call write_replicated_dataset(ctx, group, 'stresslet_per_strain', transpose(response%stresslet_per_strain), err)
+    call write_replicated_dataset(ctx, group, 'held_stresslet_per_strain', &
+                                  transpose(response%held_stresslet_per_strain), err)
+    if (response%companion_order > 0) then
+      call write_attribute(group, 'companion_strain_iterations', job_result%companion_strain_solves%iterations, err)
+      call write_attribute(group, 'companion_strain_converged_reason', &
+                           job_result%companion_strain_solves%converged_reason, err)
+      call write_replicated_dataset(ctx, group, 'companion_grand_resistance', &
+                                    transpose(job_result%companion_grand_resistance), err)
+      call write_replicated_dataset(ctx, group, 'companion_velocity_per_strain', &
+                                    transpose(response%companion_velocity_per_strain), err)
+      call write_replicated_dataset(ctx, group, 'companion_stresslet_per_strain', &
+                                    transpose(response%companion_stresslet_per_strain), err)
+      call write_replicated_dataset(ctx, group, 'velocity_per_strain_error', &
+                                    transpose(response%velocity_per_strain_error), err)
+      call write_replicated_dataset(ctx, group, 'stresslet_per_strain_error', &
+                                    transpose(response%stresslet_per_strain_error), err)
+    end if
+    call h5_close_group(group, err)
+    end associate
+  end subroutine write_flow
 
   !> The continuum job's group (docs/output.md, docs/theory.md T18).
   subroutine write_continuum(ctx, file_id, c, err)

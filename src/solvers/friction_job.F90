@@ -18,12 +18,14 @@ module beadmob_friction_job
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, &
                                       find_symmetry, solve_motions, keep_solution_part, bead_forces_of_solutions, &
-                                      destroy_motion_solver
+                                      destroy_motion_solver, strain_statistics_t, solve_strains, keep_strain_solution_part
+  use beadmob_linear_flow, only: n_strain_modes, strain_projection, strain_rotation
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
   use beadmob_lubrication, only: lubrication_table_t, make_shared_lubrication_table, add_lubrication, reference_order
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
+  use beadmob_flow_response, only: flow_response_t
   use beadmob_operator_error_bar, only: operator_error_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_friction_settings, only: friction_settings_t
@@ -45,6 +47,15 @@ module beadmob_friction_job
     !> Health of friction and multipole_friction (set by the driver, friction_diagnostics.f90)
     type(friction_diagnostics_t) :: diagnostics, multipole_diagnostics
     type(solve_statistics_t) :: solves
+    !> With settings%flow (theory.md T19): the grand resistance between the six rigid motions and
+    !> the five strain modes about the reference point (order L, model coordinates; its first 6 x 6
+    !> block is multipole_friction), the strain solves' record, and the same of the companion
+    logical :: flow = .false.
+    real(dp) :: grand_resistance(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp
+    real(dp) :: companion_grand_resistance(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp
+    type(strain_statistics_t) :: strain_solves, companion_strain_solves
+    !> The free body's response and its bar (set by the driver, flow_response.f90)
+    type(flow_response_t) :: flow_response
     !> The settings an accuracy target chose (set by the driver; target 0 = none asked for)
     type(accuracy_choice_t) :: accuracy
     integer :: unknowns_per_bead = 0
@@ -128,7 +139,7 @@ contains
     type(job_plan_t), intent(in) :: plan
     type(friction_result_t), intent(out) :: job_result
     type(error_t), intent(inout) :: err
-    real(dp) :: rotation(6, 6)
+    real(dp) :: rotation(6, 6), grand_rotation(6 + n_strain_modes, 6 + n_strain_modes)
     integer :: k
     type(friction_settings_t) :: planned
 
@@ -154,6 +165,15 @@ contains
     job_result%friction = turned_back(job_result%friction)
     job_result%companion_multipole_friction = turned_back(job_result%companion_multipole_friction)
     job_result%companion_friction = turned_back(job_result%companion_friction)
+    if (job_result%flow) then
+      ! Strain amplitudes turn with D(Q) (linear_flow.f90), the motions with diag(Q, Q).
+      grand_rotation = 0.0_dp
+      grand_rotation(1:6, 1:6) = rotation
+      grand_rotation(7:, 7:) = strain_rotation(plan%solve_axes)
+      job_result%grand_resistance = matmul(grand_rotation, matmul(job_result%grand_resistance, transpose(grand_rotation)))
+      job_result%companion_grand_resistance = matmul(grand_rotation, &
+        matmul(job_result%companion_grand_resistance, transpose(grand_rotation)))
+    end if
     do k = 1, job_result%operator_sample%rows
       job_result%operator_sample%terms(:, :, k) = turned_back(job_result%operator_sample%terms(:, :, k))
       job_result%operator_sample%second(:, :, k) = turned_back(job_result%operator_sample%second(:, :, k))
@@ -187,7 +207,7 @@ contains
     type(operator_options_t) :: options
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
     type(motion_solver_t) :: solver
-    real(dp), allocatable :: projection(:, :), self(:, :)
+    real(dp), allocatable :: projection(:, :), self(:, :), own_strain(:, :)
     real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
     Mat :: matrix, near_field
     integer(i8) :: first, count
@@ -199,7 +219,7 @@ contains
     ! the companion (theory.md T14): its basis, its unknowns in the order-L basis, its start
     type(multipole_basis_t) :: low
     integer, allocatable :: unknowns(:)
-    real(dp), allocatable :: low_start(:, :)
+    real(dp), allocatable :: low_start(:, :), low_strain_start(:, :)
     logical :: report, with_companion, own_near_field, solver_made
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
@@ -220,6 +240,11 @@ contains
     job_result%hydrodynamic_beads = size(centres, 2)
     allocate (projection(basis%size, 6))
     call rigid_projection(basis, projection)
+    job_result%flow = settings%flow
+    if (settings%flow) then
+      allocate (own_strain(basis%size, n_strain_modes))
+      call strain_projection(basis, own_strain)
+    end if
     call block_range(ctx, size(centres, 2, kind=i8), first, count)
     job_result%operator_name = operator_name
     call progress_line(report, 'phase blocks: ' // str(size(centres, 2)) // ' beads in the solve, ' // &
@@ -275,6 +300,8 @@ contains
       call solve_level(solver, op, basis, projection, job_result%multipole_friction, job_result%solves, err)
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
       call mask_uncomputed(job_result%solves, job_result%multipole_friction)
+      if (settings%flow) call solve_strains(solver, projection, own_strain, centres, reference_point, &
+                                            job_result%grand_resistance, job_result%strain_solves)
       if (allocated(solver%symmetry)) job_result%symmetry_group_order = solver%symmetry%group_order
       ! The pfft far field's error on a sample of rows (theory.md T16), before the solutions go;
       ! its bound needs the whole friction (all six motions)
@@ -291,6 +318,10 @@ contains
         unknowns = companion_unknowns(basis)
         allocate (low_start(size(unknowns) * count, 6))
         call keep_solution_part(solver, unknowns, low_start)
+        if (settings%flow) then
+          allocate (low_strain_start(size(unknowns) * count, n_strain_modes))
+          call keep_strain_solution_part(solver, unknowns, low_strain_start)
+        end if
       end if
       call destroy_motion_solver(solver)
       solver_made = .false.
@@ -378,6 +409,11 @@ contains
         call solve_level(low_solver, low_op, low, projection(unknowns, :), job_result%companion_multipole_friction, &
                          job_result%companion_solves, err)
         if (.not. err%failed) call mask_uncomputed(job_result%companion_solves, job_result%companion_multipole_friction)
+        if (.not. err%failed .and. settings%flow) then
+          call move_alloc(low_strain_start, low_solver%strain_initial_guess)
+          call solve_strains(low_solver, projection(unknowns, :), own_strain(unknowns, :), centres, reference_point, &
+                             job_result%companion_grand_resistance, job_result%companion_strain_solves)
+        end if
         call destroy_motion_solver(low_solver)
       end if
       call low_op%destroy()

@@ -25,6 +25,7 @@ module beadmob_rigid_body_solve
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry
   use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_linear_flow, only: n_strain_modes, strain_velocity
   use beadmob_multipole_operator, only: multipole_operator_t
   use beadmob_lockstep_cg, only: krylov_limits_t, solve_lockstep
   use beadmob_deflation_space, only: deflation_space_t, make_deflation_space, destroy_deflation_space
@@ -38,9 +39,24 @@ module beadmob_rigid_body_solve
   implicit none
   private
   public :: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, find_symmetry, solve_motions, &
-            keep_solution_part, bead_forces_of_solutions, destroy_motion_solver, motion_names
+            keep_solution_part, bead_forces_of_solutions, destroy_motion_solver, motion_names, &
+            strain_statistics_t, solve_strains, keep_strain_solution_part, strain_names
 
   character(len=*), parameter :: motion_names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
+  character(len=*), parameter :: strain_names(n_strain_modes) = [character(len=3) :: 'E_1', 'E_2', 'E_3', 'E_4', 'E_5']
+
+  !> What the five strain solves of a body held still in an ambient strain report (theory.md T19).
+  type :: strain_statistics_t
+    integer :: iterations(n_strain_modes) = 0
+    integer :: converged_reason(n_strain_modes) = 0
+    real(dp) :: true_relative_residual(n_strain_modes) = -1.0_dp
+    !> lambda_max / lambda_min of M A from these solves' Lanczos coefficients (0: none)
+    real(dp) :: condition_estimate = 0.0_dp
+    !> 1: solved together (lockstep_cg.F90), 0: one KSPSolve after another
+    integer :: solved_together = 0
+    !> ||G - G^T|| / ||G|| of the plain estimate of the grand resistance G_mn = c_m . q_n
+    real(dp) :: plain_symmetry_error = 0.0_dp
+  end type strain_statistics_t
 
   !> What each solve reports (recorded in the result file).
   type :: solve_statistics_t
@@ -93,6 +109,11 @@ module beadmob_rigid_body_solve
     logical :: single_bead_blocks = .false.
     Vec :: template, preconditioned
     Vec :: rhs(6), solution(6), residual(6)
+    !> The strain problems (solve_strains; made on first use): right-hand sides, solutions, residuals
+    logical :: with_strains = .false.
+    Vec :: strain_rhs(n_strain_modes), strain_solution(n_strain_modes), strain_residual(n_strain_modes)
+    !> Allocated (nb n_local x 5): each strain solve starts from its column (the companion's)
+    real(dp), allocatable :: strain_initial_guess(:, :)
     integer :: nb = 0                              ! unknowns per bead
     integer(i8) :: first_bead = 1, n_local = 0, n_total = 0
     !> Rank 0 prints a progress line per solve, beginning with `label` (e.g. 'companion solve')
@@ -496,6 +517,134 @@ contains
     end function saved_where
   end subroutine solve_motions
 
+  !> Collective, after solve_motions with all six motions computed. The five strain problems of the
+  !> body held still in the ambient strains E_k about reference_point (theory.md T19):
+  !> c_k = translation of each bead by E_k . (R_i - R_0) plus the bead's own strain (strain_projection
+  !> of linear_flow.f90), solved with the motions' operator and preconditioner (together when the
+  !> motions were), and the grand resistance between the eleven right-hand sides in the variational
+  !> form of solve_motions: grand_mn = c_m . q_n + q_m . r_n (m, n = U_x..W_z, E_1..E_5).
+  subroutine solve_strains(solver, projection, own_strain, centres, reference_point, grand, stats)
+    type(motion_solver_t), intent(inout) :: solver
+    real(dp), intent(in) :: projection(:, :), own_strain(:, :), centres(:, :), reference_point(3)
+    real(dp), intent(out) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
+    type(strain_statistics_t), intent(out) :: stats
+    Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    PetscInt :: iterations
+    KSPConvergedReason :: reason
+    PetscReal :: largest_value, smallest_value, rhs_norm, residual_norm
+    real(dp) :: plain(6 + n_strain_modes, 6 + n_strain_modes), correction(6 + n_strain_modes, 6 + n_strain_modes)
+    real(dp) :: arm(3)
+    integer(i8) :: i
+    integer :: k, m, n, nb
+    logical :: stopped
+
+    nb = solver%nb
+    if (.not. solver%with_strains) then
+      do k = 1, n_strain_modes
+        PetscCallA(VecDuplicate(solver%template, solver%strain_rhs(k), ierr))
+        PetscCallA(VecDuplicate(solver%template, solver%strain_solution(k), ierr))
+        PetscCallA(VecDuplicate(solver%template, solver%strain_residual(k), ierr))
+      end do
+      solver%with_strains = .true.
+    end if
+    associate (rhs => solver%strain_rhs, solution => solver%strain_solution, residual => solver%strain_residual)
+    do k = 1, n_strain_modes
+      PetscCallA(VecGetArrayF90(rhs(k), values, ierr))
+      do i = 1, solver%n_local
+        arm = centres(:, solver%first_bead + i - 1) - reference_point
+        values(nb * (i - 1) + 1:nb * i) = matmul(projection(:, 1:3), strain_velocity(k, arm)) + own_strain(:, k)
+      end do
+      PetscCallA(VecRestoreArrayF90(rhs(k), values, ierr))
+      if (allocated(solver%strain_initial_guess)) then
+        PetscCallA(VecGetArrayF90(solution(k), values, ierr))
+        values = solver%strain_initial_guess(:, k)
+        PetscCallA(VecRestoreArrayF90(solution(k), values, ierr))
+      else
+        PetscCallA(VecZeroEntries(solution(k), ierr))
+      end if
+    end do
+
+    PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess)), ierr))
+    if (solver%together) then
+      call solve_lockstep(solver%op, solver%pc, rhs, solution, allocated(solver%strain_initial_guess), solver%limits, &
+                          finished, stopped)
+      stats%solved_together = 1
+    else
+      do k = 1, n_strain_modes
+        PetscCallA(KSPSolve(solver%ksp, rhs(k), solution(k), ierr))
+        PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
+        PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
+        PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
+        call finished(k, int(iterations), int(reason), largest_value, smallest_value, stopped)
+      end do
+    end if
+    ! True residuals r = c - A q (one batched product), kept for the variational form.
+    if (associated(solver%op)) then
+      call solver%op%apply_many(solution, residual)
+    else
+      do k = 1, n_strain_modes
+        PetscCallA(MatMult(solver%matrix, solution(k), residual(k), ierr))
+      end do
+    end if
+    do k = 1, n_strain_modes
+      PetscCallA(VecAYPX(residual(k), -1.0_dp, rhs(k), ierr))
+      PetscCallA(VecNorm(residual(k), NORM_2, residual_norm, ierr))
+      PetscCallA(VecNorm(rhs(k), NORM_2, rhs_norm, ierr))
+      stats%true_relative_residual(k) = residual_norm / rhs_norm
+    end do
+    c = [solver%rhs, rhs]
+    q = [solver%solution, solution]
+    r = [solver%residual, residual]
+    end associate
+    do n = 1, size(c)
+      PetscCallA(VecMDot(q(n), size(c), c, plain(:, n), ierr))
+      PetscCallA(VecMDot(r(n), size(c), q, correction(:, n), ierr))
+    end do
+    grand = plain + correction
+    stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
+    do m = 1, size(c)   ! symmetric in exact arithmetic (the Galerkin form of a symmetric operator)
+      do n = m + 1, size(c)
+        grand(m, n) = 0.5_dp * (grand(m, n) + grand(n, m))
+        grand(n, m) = grand(m, n)
+      end do
+    end do
+    call progress_line(solver%progress, solver%label // ' strains: ' // str(sum(stats%iterations)) // &
+                       ' iterations in all')
+
+  contains
+
+    subroutine finished(k, its, why, largest, smallest, stop)
+      integer, intent(in) :: k, its, why
+      real(dp), intent(in) :: largest, smallest
+      logical, intent(inout) :: stop
+      stats%iterations(k) = its
+      stats%converged_reason(k) = why
+      if (smallest > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, largest / smallest)
+      stop = .false.
+    end subroutine finished
+  end subroutine solve_strains
+
+  !> kept (size(unknowns) n_local x 5): the entries `unknowns` of each strain solution (the
+  !> companion's start, as keep_solution_part for the motions).
+  subroutine keep_strain_solution_part(solver, unknowns, kept)
+    type(motion_solver_t), intent(in) :: solver
+    integer, intent(in) :: unknowns(:)
+    real(dp), intent(out) :: kept(:, :)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    integer(i8) :: i
+    integer :: k
+    do k = 1, n_strain_modes
+      PetscCallA(VecGetArrayReadF90(solver%strain_solution(k), values, ierr))
+      do i = 1, solver%n_local
+        kept(size(unknowns) * (i - 1) + 1:size(unknowns) * i, k) = values(solver%nb * (i - 1) + unknowns)
+      end do
+      PetscCallA(VecRestoreArrayReadF90(solver%strain_solution(k), values, ierr))
+    end do
+  end subroutine keep_strain_solution_part
+
   !> The motions of a checkpoint with the solver's key into its solutions (solver%loaded).
   !> Another key or an unreadable file: one warning line, nothing loaded, and the file is
   !> overwritten by the first save. Derived motions (source /= 0) are recomputed from their sources.
@@ -636,6 +785,14 @@ contains
       PetscCallA(VecDestroy(solver%solution(m), ierr))
       PetscCallA(VecDestroy(solver%residual(m), ierr))
     end do
+    if (solver%with_strains) then
+      do m = 1, n_strain_modes
+        PetscCallA(VecDestroy(solver%strain_rhs(m), ierr))
+        PetscCallA(VecDestroy(solver%strain_solution(m), ierr))
+        PetscCallA(VecDestroy(solver%strain_residual(m), ierr))
+      end do
+      solver%with_strains = .false.
+    end if
     PetscCallA(VecDestroy(solver%template, ierr))
     PetscCallA(VecDestroy(solver%preconditioned, ierr))
     PetscCallA(KSPDestroy(solver%ksp, ierr))
