@@ -256,6 +256,9 @@ contains
       call raise(err, '&continuum chooses its own resolutions: an accuracy target (accuracy, -accuracy) does not apply')
     else if (.not. all(config%hydrodynamics%motions)) then
       call raise(err, '&continuum needs all six motions (motions = ''all'')')
+    else if (config%hydrodynamics%flow) then
+      call raise(err, '&continuum does not extrapolate the flow''s response yet (&hydrodynamics flow = .true.): ' // &
+                 'run the flow as an ordinary job (without &continuum), whose result carries its own error bar')
     else if (.not. any(filled_shapes == config%shape%name)) then
       call raise(err, "&continuum needs a shape that fills a body on the lattice, not '" // trim(config%shape%name) // &
                  "' (one of sphere, spheroid, box with box_size, cylinder, torus, mesh and the paper's shapes)")

@@ -111,7 +111,8 @@ contains
     end if
     write (*, '(a)') '  expected wall time:   ' // seconds_text(e%seconds_total) // ' (blocks ' // &
       seconds_text(e%seconds_blocks) // ', solve ' // seconds_text(e%seconds_solve) // ': ' // str(e%n_solves) // &
-      ' solve(s) of ~' // str(e%iterations) // ' CG iterations' // &
+      ' solve(s)' // either(e%strain_solves > 0, ' + ' // str(e%strain_solves) // ' strain solves', '') // &
+      ' of ~' // str(e%iterations) // ' CG iterations' // &
       either(e%seconds_companion > 0, ', error bar''s companion ' // seconds_text(e%seconds_companion), '') // ')'
     if (plan%body_frame) write (*, '(a)') '  solve frame:          the body frame (' // str(plan%n_solves) // &
       ' solves instead of ' // str(plan%lab_solves) // ' in the model''s coordinates)'

@@ -309,7 +309,7 @@ contains
     type(run_config_t), intent(in) :: config
     type(mobility_result_t), intent(in) :: mobility
     type(friction_result_t), intent(in) :: job_result
-    integer :: phase
+    integer :: phase, k
     write (*, '(a)') '  hydrodynamics: multipole order L = ' // str(config%hydrodynamics%multipole_order) // &
       ' (sigma = 2 family to degree ' // str(config%hydrodynamics%potential_order) // ', ' // &
       str(job_result%unknowns_per_bead) // ' unknowns per bead), lubrication ' // &
@@ -358,6 +358,19 @@ contains
       ' on the scale sqrt(M_ii M_jj)' // trim(merge(', in the error bar', '                  ', &
       job_result%estimate%available)) // ' (exact rows of ' // str(job_result%operator_error%rows) // ' of ' // &
       str(job_result%operator_error%n_beads) // ' beads, docs/theory.md T16)'
+    if (job_result%flow_response%available) then
+      associate (r => job_result%flow_response)
+      write (*, '(a)') '  free body in a linear flow (/flow, docs/theory.md T19), per unit strain amplitude E_1 ... E_5:'
+      write (*, '(a, 5es11.3)') '    stresslet, diagonal:   ', [(r%stresslet_per_strain(k, k), k=1, 5)]
+      if (r%companion_order > 0) write (*, '(a, 5es11.3)') '    its error (+-):       ', &
+        [(r%stresslet_per_strain_error(k, k), k=1, 5)]
+      write (*, '(a, es11.3, a, es9.2, a)') '    largest rotation |Omega - Omega0|:', maxval(abs(r%velocity_per_strain(4:6, :))), &
+        ' (+-', maxval(r%velocity_per_strain_error(4:6, :)), ')'
+      end associate
+      if (any(job_result%strain_solves%converged_reason <= 0)) write (error_unit, '(a, 5i4, a)') &
+        'beadmob: warning: not every strain solve converged (reasons ', job_result%strain_solves%converged_reason, &
+        '); the result file flags it: /flow all_converged = 0'
+    end if
     if (len_trim(job_result%cache_file) > 0) write (*, '(a)') '  table cache ' // trim(job_result%cache_file) // ': ' // &
       str(job_result%cached_blocks) // ' blocks read, ' // str(job_result%computed_blocks) // ' computed; lubrication ' // &
       str(job_result%lubrication_table%cached_distances) // ' distances read, ' // &

@@ -23,6 +23,9 @@ module beadmob_job_estimate
   real(dp), parameter :: base_bytes = 45.0e6_dp          ! MPI, PETSc, HDF5, FFTW and the program itself
   real(dp), parameter :: geometry_bytes_per_bead = 120.0_dp   ! replicated positions, lattice, indexes
   real(dp), parameter :: vectors_per_unknown = 26.0_dp   ! 18 motion vectors + Krylov work + scatters
+  !> With the flow (theory.md T19): 15 strain vectors and the lockstep work of five systems (4
+  !> each) beside the motions' 18, which stay for the grand resistance
+  real(dp), parameter :: flow_vectors_per_unknown = 27.0_dp
   ! Largest CG iteration count of the solves, a N_solve^p: the full model (bench/scaling/scaling.md before
   ! the shell default: 18 at 1e3 to 37 at 1e5 beads) and the one-layer shell (11 at 354 beads in
   ! the solve to 18 at 4e4).
@@ -38,6 +41,7 @@ module beadmob_job_estimate
   type :: job_estimate_t
     integer(i8) :: n_beads = 0, solve_beads = 0, unknowns = 0
     integer :: unknowns_per_bead = 0, n_ranks = 1, n_solves = 6, iterations = 0
+    integer :: strain_solves = 0   ! a flow job's five (theory.md T19), 0 otherwise
     character(len=16) :: operator_name = ''
     integer :: fft_box(3) = 0                 ! padded box (slow axis last); 0 without an FFT
     integer :: frequency_lines = 0            ! spectrum lines split over the ranks
@@ -63,7 +67,7 @@ contains
   !> transient need, the vectors and the companion (its operator, vectors and start).
   function estimate_job(n_beads, solve_beads, spans, on_lattice, order, potential_order, operator_name, &
                         n_ranks, n_solves, shell, oversubscription, companion, near_radius, mirrors, replicated, &
-                        krylov_rtol) result(e)
+                        krylov_rtol, strain_solves) result(e)
     integer(i8), intent(in) :: n_beads, solve_beads
     integer, intent(in) :: spans(3), order, potential_order, n_ranks, n_solves
     logical, intent(in) :: shell, companion
@@ -77,11 +81,14 @@ contains
     logical, intent(in), optional :: replicated
     !> The solves' Krylov tolerance (default: the one the iteration counts were fitted at)
     real(dp), intent(in), optional :: krylov_rtol
+    !> The five strain solves of a flow job (theory.md T19) after the motions' (default 0)
+    integer, intent(in), optional :: strain_solves
     type(job_estimate_t) :: e
     class(multipole_operator_t), allocatable :: op
     type(job_size_t) :: size
     type(operator_cost_t) :: cost
     real(dp) :: products, low_products, share
+    integer :: strains
 
     e%n_beads = n_beads
     e%solve_beads = solve_beads
@@ -117,7 +124,11 @@ contains
 
     e%base = base_bytes
     e%geometry = geometry_bytes_per_bead * n_beads
+    strains = 0
+    if (present(strain_solves)) strains = strain_solves
+    e%strain_solves = strains
     e%vectors = vectors_per_unknown * 8 * size%local_beads * size%nb
+    if (strains > 0) e%vectors = e%vectors + flow_vectors_per_unknown * 8 * size%local_beads * size%nb
     if (e%replicated) e%vectors = e%vectors + 2 * 8 * share * n_solves * real(solve_beads, dp) * size%nb
     e%canonical_blocks = cost%canonical_blocks
     e%fft_box = cost%fft_box
@@ -139,8 +150,8 @@ contains
       if (krylov_rtol > 0.0_dp .and. krylov_rtol < fitted_rtol) &
         e%iterations = ceiling(e%iterations * log(krylov_rtol) / log(fitted_rtol))
     end if
-    products = real(n_solves, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
-    low_products = real(n_solves, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
+    products = real(n_solves + strains, dp) * (e%iterations + 1) + (6 - n_solves)   ! + the true-residual products
+    low_products = real(n_solves + strains, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
     e%seconds_blocks = cost%seconds_setup * max(oversubscription, 1.0_dp)
     e%seconds_solve = products * cost%seconds_product * max(oversubscription, 1.0_dp)
     if (size%nb_low > 0) e%seconds_companion = low_products * cost%seconds_low_product * max(oversubscription, 1.0_dp)

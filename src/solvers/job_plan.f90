@@ -136,7 +136,7 @@ contains
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
                                  plan%pfft_near_radius, fft_mirrors(plan%solve_centres, settings), &
-                                 plan%replicated_products, solve_rtol(settings))
+                                 plan%replicated_products, solve_rtol(settings), merge(5, 0, settings%flow))
   end subroutine make_job_plan
 
   !> The spans (sites per axis less one) an operator's cost follows: the lattice box of the solve
