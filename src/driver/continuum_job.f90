@@ -28,6 +28,8 @@ module beadmob_continuum_job
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
   use beadmob_job_plan, only: job_plan_t
   use beadmob_friction_job, only: friction_of_plan, friction_result_t
+  use beadmob_linear_flow, only: n_strain_modes
+  use beadmob_flow_response, only: free_body_response
   use beadmob_result_file, only: write_result_file
   use beadmob_job_planning, only: plan_friction_job
   implicit none
@@ -46,14 +48,17 @@ module beadmob_continuum_job
   integer, parameter :: pilot_beads = 1000
   !> Candidate ladders reach this many levels below the coarsest feasible one (bead counts 2**ladder_span).
   integer, parameter :: ladder_span = 21
-  !> Numbers per sample in the checkpoint: see pack_sample.
-  integer, parameter :: sample_numbers = 60
+  !> Numbers per sample in the checkpoint (see pack_sample), and those a flow job adds (its grand
+  !> resistance): a flow job's input, and so its checkpoint key, differs from any other's.
+  integer, parameter :: sample_numbers = 60, flow_numbers = 121
 
   !> One solved bead model of the ladder (lengths in d unless said otherwise).
   type :: continuum_sample_t
     integer :: level = 0, offset_index = 0, beads = 0, iterations = 0, converged = 0
     real(dp) :: seconds = 0.0_dp, residual = 0.0_dp, bead_diameter = 0.0_dp, offset(3) = 0.0_dp
     real(dp) :: friction(6, 6) = 0.0_dp          ! about the beads' centre of mass
+    !> A flow job's grand resistance (theory.md T19), about the same point; 0 otherwise
+    real(dp) :: grand(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp
     type(body_moments_t) :: moments              ! in the shape's unit
   end type continuum_sample_t
 
@@ -95,7 +100,7 @@ contains
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
-    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, finest, samples, err)
+    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, config%hydrodynamics%flow, finest, samples, err)
     if (err%failed) return
     ! A mesh is read and checked once; every fill of the job below uses it.
     if (config%shape%name == 'mesh') call read_mesh_once(ctx, config%shape, mesh, err)
@@ -158,7 +163,8 @@ contains
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
         samples = [samples, solve_sample(level, j, diameters(level))]
         if (err%failed) return
-        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, diameters(size(diameters)), samples, err)
+        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, config%hydrodynamics%flow, &
+                                                                           diameters(size(diameters)), samples, err)
         call agree_on_error(ctx, err)
         if (err%failed) return
         ! The test stop of -stop_after_solves counts a continuum job's samples (a kill at a known
@@ -234,6 +240,7 @@ contains
       sample%bead_diameter = d
       sample%offset = sample_config%shape%lattice_offset
       sample%friction = job_result%friction
+      if (job_result%flow) sample%grand = job_result%grand_resistance
       sample%moments = moments_of_beads(sample_model%centres, d)
       sample%iterations = sum(max(job_result%solves%iterations, 0))
       sample%converged = merge(1, 0, all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0))
@@ -256,9 +263,6 @@ contains
       call raise(err, '&continuum chooses its own resolutions: an accuracy target (accuracy, -accuracy) does not apply')
     else if (.not. all(config%hydrodynamics%motions)) then
       call raise(err, '&continuum needs all six motions (motions = ''all'')')
-    else if (config%hydrodynamics%flow) then
-      call raise(err, '&continuum does not extrapolate the flow''s response yet (&hydrodynamics flow = .true.): ' // &
-                 'run the flow as an ordinary job (without &continuum), whose result carries its own error bar')
     else if (.not. any(filled_shapes == config%shape%name)) then
       call raise(err, "&continuum needs a shape that fills a body on the lattice, not '" // trim(config%shape%name) // &
                  "' (one of sphere, spheroid, box with box_size, cylinder, torus, mesh and the paper's shapes)")
@@ -603,6 +607,9 @@ contains
     allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
     allocate (result%sample_moments(13, n))
+    result%flow = config%hydrodynamics%flow
+    if (result%flow) allocate (result%sample_velocity_per_strain(6 * n_strain_modes, n), &
+                               result%sample_stresslet_per_strain(n_strain_modes**2, n))
     do s = 1, n
       associate (p => samples(s), d => samples(s)%bead_diameter)
         result%sample_level(s) = p%level
@@ -626,6 +633,9 @@ contains
         friction = scaled_by_ratio(friction, ellipsoid_friction(true_semi, true_axes), &
                                    ellipsoid_friction(sample_semi, sample_axes))
         friction = 0.5_dp * (friction + transpose(friction))
+        if (result%flow) call sample_flow(p%grand, d, ellipsoid_friction(true_semi, true_axes), &
+                                          ellipsoid_friction(sample_semi, sample_axes), &
+                                          result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
         call compute_mobility(friction, result%centroid, axes, result%reference_length, mobility, err)
         if (err%failed) return
         result%sample_mobility(:, s) = reshape(mobility%mobility, [36])
@@ -671,7 +681,83 @@ contains
     end do
     result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))
     call invert(result%mobility, result%friction, err, 'the extrapolated mobility')
+    if (result%flow) call flow_values()
+
+  contains
+
+    !> The flow's response (theory.md T19) extrapolated entry by entry as the mobility's: the
+    !> velocity per strain (translation ~ length, rotation ~ length^0) and the stresslet per strain
+    !> (~ length^3), each with the volume's share in its bar.
+    subroutine flow_values()
+      integer, parameter :: nv = 6 * n_strain_modes, nt = n_strain_modes**2
+      real(dp) :: power
+      allocate (result%level_velocity_per_strain(nv, levels), result%level_velocity_per_strain_error(nv, levels))
+      allocate (result%level_stresslet_per_strain(nt, levels), result%level_stresslet_per_strain_error(nt, levels))
+      do k = 1, levels
+        members = pack([(s, s = 1, n)], result%sample_level == k)
+        do q = 1, nv
+          call level_mean(result%sample_velocity_per_strain(q, members), result%level_velocity_per_strain(q, k), &
+                          result%level_velocity_per_strain_error(q, k))
+        end do
+        do q = 1, nt
+          call level_mean(result%sample_stresslet_per_strain(q, members), result%level_stresslet_per_strain(q, k), &
+                          result%level_stresslet_per_strain_error(q, k))
+        end do
+      end do
+      do q = 1, nv
+        row = modulo(q - 1, 6) + 1
+        column = (q - row) / 6 + 1
+        fit = extrapolate_to_zero(diameters, result%level_velocity_per_strain(q, :), &
+                                  result%level_velocity_per_strain_error(q, :), 0.0_dp)
+        power = merge(1.0_dp, 0.0_dp, row <= 3)
+        result%velocity_per_strain(row, column) = fit%value
+        result%velocity_per_strain_error(row, column) = fit%error + abs(fit%value) * power / 3.0_dp * relative_volume_error
+      end do
+      do q = 1, nt
+        row = modulo(q - 1, n_strain_modes) + 1
+        column = (q - row) / n_strain_modes + 1
+        fit = extrapolate_to_zero(diameters, result%level_stresslet_per_strain(q, :), &
+                                  result%level_stresslet_per_strain_error(q, :), 0.0_dp)
+        result%stresslet_per_strain(row, column) = fit%value
+        result%stresslet_per_strain_error(row, column) = fit%error + abs(fit%value) * relative_volume_error
+      end do
+      result%stresslet_per_strain = 0.5_dp * (result%stresslet_per_strain + transpose(result%stresslet_per_strain))
+      result%stresslet_per_strain_error = max(result%stresslet_per_strain_error, &
+                                              transpose(result%stresslet_per_strain_error))
+    end subroutine flow_values
   end subroutine continuum_values
+
+  !> A flow sample (theory.md T19) in the shape's unit and corrected as its friction is
+  !> (scaled_by_ratio: the equivalent ellipsoids' frictions `body` and `sample`; the strain rows
+  !> by the cube root of the rotation blocks' determinant ratio, a length^(3/2) like a rotation's),
+  !> and the free body's velocity and stresslet per unit strain (columns flattened).
+  subroutine sample_flow(grand, d, body, sample, velocity, stresslet)
+    real(dp), intent(in) :: grand(6 + n_strain_modes, 6 + n_strain_modes), d, body(6, 6), sample(6, 6)
+    real(dp), intent(out) :: velocity(6 * n_strain_modes), stresslet(n_strain_modes**2)
+    real(dp) :: lengths(6 + n_strain_modes), corrected(6 + n_strain_modes, 6 + n_strain_modes)
+    real(dp) :: scaling(6 + n_strain_modes, 6 + n_strain_modes), v(6, n_strain_modes), t(n_strain_modes, n_strain_modes)
+    logical :: ok
+    integer :: b
+    ! To the shape's unit: entry (m, n) ~ length^(1 + [m rotational or strain] + [n ...]).
+    lengths = [1.0_dp, 1.0_dp, 1.0_dp, (d, b=4, 6 + n_strain_modes)]
+    corrected = grand * d * spread(lengths, 2, size(lengths)) * spread(lengths, 1, size(lengths))
+    scaling = 0.0_dp
+    scaling(1:6, 1:6) = ratio_scaling(body, sample)
+    do b = 7, 6 + n_strain_modes
+      scaling(b, b) = (determinant3(body(4:6, 4:6)) / determinant3(sample(4:6, 4:6)))**(1.0_dp / 6.0_dp)
+    end do
+    corrected = matmul(scaling, matmul(corrected, transpose(scaling)))
+    corrected = 0.5_dp * (corrected + transpose(corrected))
+    call free_body_response(corrected, v, t, ok)
+    velocity = reshape(v, [6 * n_strain_modes])
+    stresslet = reshape(t, [n_strain_modes**2])
+  end subroutine sample_flow
+
+  pure real(dp) function determinant3(a)
+    real(dp), intent(in) :: a(3, 3)
+    determinant3 = a(1, 1) * (a(2, 2) * a(3, 3) - a(2, 3) * a(3, 2)) - a(1, 2) * (a(2, 1) * a(3, 3) - a(2, 3) * a(3, 1)) &
+                   + a(1, 3) * (a(2, 1) * a(3, 2) - a(2, 2) * a(3, 1))
+  end function determinant3
 
   !> The sample's friction K corrected by the ratio of its body's and its own equivalent
   !> ellipsoids' frictions B and S (docs/theory.md T18, step 2): T K T^T with T = B^(1/2) S^(-1/2)
@@ -682,14 +768,21 @@ contains
   function scaled_by_ratio(friction, body, sample) result(corrected)
     real(dp), intent(in) :: friction(6, 6), body(6, 6), sample(6, 6)
     real(dp) :: corrected(6, 6), scaling(6, 6)
+    scaling = ratio_scaling(body, sample)
+    corrected = matmul(scaling, matmul(friction, transpose(scaling)))
+  end function scaled_by_ratio
+
+  !> T = B^(1/2) S^(-1/2) on the translation and the rotation blocks (scaled_by_ratio).
+  function ratio_scaling(body, sample) result(scaling)
+    real(dp), intent(in) :: body(6, 6), sample(6, 6)
+    real(dp) :: scaling(6, 6)
     integer :: b
     scaling = 0.0_dp
     do b = 0, 3, 3
       scaling(b + 1:b + 3, b + 1:b + 3) = matmul(symmetric_power(body(b + 1:b + 3, b + 1:b + 3), 0.5_dp), &
                                                  symmetric_power(sample(b + 1:b + 3, b + 1:b + 3), -0.5_dp))
     end do
-    corrected = matmul(scaling, matmul(friction, transpose(scaling)))
-  end function scaled_by_ratio
+  end function ratio_scaling
 
   !> a^p of a symmetric positive definite 3x3 matrix, by its eigenvalues.
   function symmetric_power(a, p) result(power)
@@ -732,9 +825,10 @@ contains
 
   !> The samples of a checkpoint whose key is the run's (rank 0 reads, all ranks get them); a
   !> checkpoint of another input is ignored with a note, a damaged one is an error.
-  subroutine read_checkpoint(ctx, path, key, finest, samples, err)
+  subroutine read_checkpoint(ctx, path, key, flow, finest, samples, err)
     type(run_context_t), intent(in) :: ctx
     character(len=*), intent(in) :: path, key
+    logical, intent(in) :: flow
     real(dp), intent(out) :: finest
     type(continuum_sample_t), allocatable, intent(inout) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -742,11 +836,13 @@ contains
     character(len=256) :: header
     character(len=16) :: found_key
     logical :: exists
-    integer :: unit, status, n, s, ierr
-    real(dp) :: values(sample_numbers)
+    integer :: unit, status, n, s, ierr, width
+    real(dp), allocatable :: values(:)
+    width = sample_numbers + merge(flow_numbers, 0, flow)
+    allocate (values(width))
     n = 0
     finest = -1.0_dp
-    allocate (numbers(sample_numbers, 0))
+    allocate (numbers(width, 0))
     if (ctx%rank == 0) then
       inquire (file=path, exist=exists)
       if (exists) call read_samples()
@@ -758,9 +854,9 @@ contains
     call MPI_Bcast(finest, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
     if (ctx%rank /= 0) then
       deallocate (numbers)
-      allocate (numbers(sample_numbers, n))
+      allocate (numbers(width, n))
     end if
-    if (n > 0) call MPI_Bcast(numbers, sample_numbers * n, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+    if (n > 0) call MPI_Bcast(numbers, width * n, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
     samples = [(unpack_sample(numbers(:, s)), s = 1, n)]
 
   contains
@@ -783,7 +879,7 @@ contains
           do
             read (unit, *, iostat=status) values
             if (status /= 0) exit
-            numbers = reshape([numbers, values], [sample_numbers, size(numbers, 2) + 1])
+            numbers = reshape([numbers, values], [width, size(numbers, 2) + 1])
           end do
           if (.not. is_iostat_end(status)) then
             call raise(err, "continuum checkpoint '" // path // "' line " // str(size(numbers, 2) + 2) // &
@@ -799,8 +895,9 @@ contains
 
   !> Rank 0: every sample so far to '<path>.tmp', renamed over the checkpoint (a kill while
   !> writing leaves the previous one whole).
-  subroutine write_checkpoint(path, key, finest, samples, err)
+  subroutine write_checkpoint(path, key, flow, finest, samples, err)
     character(len=*), intent(in) :: path, key
+    logical, intent(in) :: flow
     real(dp), intent(in) :: finest
     type(continuum_sample_t), intent(in) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -808,7 +905,7 @@ contains
     open (newunit=unit, file=path // '.tmp', status='replace', action='write', iostat=status)
     if (status == 0) write (unit, '(a, 1x, a, 1x, es25.17e3)', iostat=status) checkpoint_header, key, finest
     do s = 1, size(samples)
-      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s))
+      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s), flow)
     end do
     if (status == 0) close (unit, iostat=status)
     if (status /= 0 .or. .not. rename_file(path // '.tmp', path)) &
@@ -817,16 +914,18 @@ contains
 
   !> level, offset index, beads, iterations, converged, seconds, residual, d, offset(3),
   !> friction(36), volume, first(3), second(9): 60 numbers.
-  pure function pack_sample(p) result(values)
+  pure function pack_sample(p, flow) result(values)
     type(continuum_sample_t), intent(in) :: p
-    real(dp) :: values(sample_numbers)
+    logical, intent(in) :: flow
+    real(dp), allocatable :: values(:)
     values = [real(p%level, dp), real(p%offset_index, dp), real(p%beads, dp), real(p%iterations, dp), &
               real(p%converged, dp), p%seconds, p%residual, p%bead_diameter, p%offset, reshape(p%friction, [36]), &
               p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
+    if (flow) values = [values, reshape(p%grand, [flow_numbers])]
   end function pack_sample
 
   pure function unpack_sample(values) result(p)
-    real(dp), intent(in) :: values(sample_numbers)
+    real(dp), intent(in) :: values(:)
     type(continuum_sample_t) :: p
     p%level = nint(values(1))
     p%offset_index = nint(values(2))
@@ -841,6 +940,8 @@ contains
     p%moments%volume = values(48)
     p%moments%first = values(49:51)
     p%moments%second = reshape(values(52:60), [3, 3])
+    if (size(values) > sample_numbers) p%grand = reshape(values(sample_numbers + 1:sample_numbers + flow_numbers), &
+                                                         shape(p%grand))
   end function unpack_sample
 
 

@@ -51,6 +51,15 @@ module beadmob_continuum_fit
     real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
     real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
+    !> A flow job (theory.md T19): per sample its corrected velocity (6 x 5) and stresslet (5 x 5) per
+    !> unit strain (columns flattened, about the body's centroid, input axes), per level their means
+    !> and standard errors, and the continuum values with their bars
+    logical :: flow = .false.
+    real(dp), allocatable :: sample_velocity_per_strain(:, :), sample_stresslet_per_strain(:, :)
+    real(dp), allocatable :: level_velocity_per_strain(:, :), level_velocity_per_strain_error(:, :)
+    real(dp), allocatable :: level_stresslet_per_strain(:, :), level_stresslet_per_strain_error(:, :)
+    real(dp) :: velocity_per_strain(6, 5) = 0.0_dp, velocity_per_strain_error(6, 5) = 0.0_dp
+    real(dp) :: stresslet_per_strain(5, 5) = 0.0_dp, stresslet_per_strain_error(5, 5) = 0.0_dp
   end type continuum_result_t
 
   !> The smallest standard error a level may count with, as a fraction of the median level's.

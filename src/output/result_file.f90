@@ -394,6 +394,22 @@ contains
     call write_replicated_dataset(ctx, group, 'coefficient_standard_error', c%coefficient_standard_error, err)
     call write_replicated_dataset(ctx, group, 'coefficients_linear_fit', c%coefficient_linear, err)
     call write_replicated_dataset(ctx, group, 'coefficients_without_coarsest', c%coefficient_reduced, err)
+    call write_attribute(group, 'flow', merge(1, 0, c%flow), err)
+    if (c%flow) then
+      ! The flow's response (theory.md T19), extrapolated as the mobility is; C-order readers see
+      ! the sample and level arrays as (samples or levels, 30 or 25), columns flattened Fortran-wise.
+      call write_replicated_dataset(ctx, group, 'velocity_per_strain', transpose(c%velocity_per_strain), err)
+      call write_replicated_dataset(ctx, group, 'velocity_per_strain_error', transpose(c%velocity_per_strain_error), err)
+      call write_replicated_dataset(ctx, group, 'stresslet_per_strain', transpose(c%stresslet_per_strain), err)
+      call write_replicated_dataset(ctx, group, 'stresslet_per_strain_error', transpose(c%stresslet_per_strain_error), err)
+      call write_replicated_dataset(ctx, group, 'sample_velocity_per_strain', c%sample_velocity_per_strain, err)
+      call write_replicated_dataset(ctx, group, 'sample_stresslet_per_strain', c%sample_stresslet_per_strain, err)
+      call write_replicated_dataset(ctx, group, 'level_velocity_per_strain', c%level_velocity_per_strain, err)
+      call write_replicated_dataset(ctx, group, 'level_velocity_per_strain_error', c%level_velocity_per_strain_error, err)
+      call write_replicated_dataset(ctx, group, 'level_stresslet_per_strain', c%level_stresslet_per_strain, err)
+      call write_replicated_dataset(ctx, group, 'level_stresslet_per_strain_error', &
+                                    c%level_stresslet_per_strain_error, err)
+    end if
     call h5_close_group(group, err)
   end subroutine write_continuum
 
