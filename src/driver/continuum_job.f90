@@ -22,7 +22,7 @@ module beadmob_continuum_job
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
-  use beadmob_ellipsoid_friction, only: ellipsoid_friction
+  use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
@@ -633,8 +633,8 @@ contains
         friction = scaled_by_ratio(friction, ellipsoid_friction(true_semi, true_axes), &
                                    ellipsoid_friction(sample_semi, sample_axes))
         friction = 0.5_dp * (friction + transpose(friction))
-        if (result%flow) call sample_flow(p%grand, d, ellipsoid_friction(true_semi, true_axes), &
-                                          ellipsoid_friction(sample_semi, sample_axes), &
+        if (result%flow) call sample_flow(p%grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
+                                          ellipsoid_grand_resistance(sample_semi, sample_axes), &
                                           result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
         call compute_mobility(friction, result%centroid, axes, result%reference_length, mobility, err)
         if (err%failed) return
@@ -727,37 +727,31 @@ contains
     end subroutine flow_values
   end subroutine continuum_values
 
-  !> A flow sample (theory.md T19) in the shape's unit and corrected as its friction is
-  !> (scaled_by_ratio: the equivalent ellipsoids' frictions `body` and `sample`; the strain rows
-  !> by the cube root of the rotation blocks' determinant ratio, a length^(3/2) like a rotation's),
-  !> and the free body's velocity and stresslet per unit strain (columns flattened).
+  !> A flow sample (theory.md T19) in the shape's unit, corrected as its friction is by the
+  !> equivalent ellipsoids' grand resistances B (the body's) and S (its own): T K T^T with T =
+  !> B^(1/2) S^(-1/2) on the translation block and on the rotation-and-strain block (both scale
+  !> as length^3; an ellipsoid couples neither to translation), so a sample that is its ellipsoid
+  !> becomes the body's; then the free body's velocity and stresslet per unit strain (columns
+  !> flattened).
   subroutine sample_flow(grand, d, body, sample, velocity, stresslet)
-    real(dp), intent(in) :: grand(6 + n_strain_modes, 6 + n_strain_modes), d, body(6, 6), sample(6, 6)
+    integer, parameter :: n = 6 + n_strain_modes
+    real(dp), intent(in) :: grand(n, n), d, body(n, n), sample(n, n)
     real(dp), intent(out) :: velocity(6 * n_strain_modes), stresslet(n_strain_modes**2)
-    real(dp) :: lengths(6 + n_strain_modes), corrected(6 + n_strain_modes, 6 + n_strain_modes)
-    real(dp) :: scaling(6 + n_strain_modes, 6 + n_strain_modes), v(6, n_strain_modes), t(n_strain_modes, n_strain_modes)
+    real(dp) :: lengths(n), corrected(n, n), scaling(n, n), v(6, n_strain_modes), t(n_strain_modes, n_strain_modes)
     logical :: ok
     integer :: b
     ! To the shape's unit: entry (m, n) ~ length^(1 + [m rotational or strain] + [n ...]).
-    lengths = [1.0_dp, 1.0_dp, 1.0_dp, (d, b=4, 6 + n_strain_modes)]
-    corrected = grand * d * spread(lengths, 2, size(lengths)) * spread(lengths, 1, size(lengths))
+    lengths = [1.0_dp, 1.0_dp, 1.0_dp, (d, b=4, n)]
+    corrected = grand * d * spread(lengths, 2, n) * spread(lengths, 1, n)
     scaling = 0.0_dp
-    scaling(1:6, 1:6) = ratio_scaling(body, sample)
-    do b = 7, 6 + n_strain_modes
-      scaling(b, b) = (determinant3(body(4:6, 4:6)) / determinant3(sample(4:6, 4:6)))**(1.0_dp / 6.0_dp)
-    end do
+    scaling(1:3, 1:3) = matmul(symmetric_power(body(1:3, 1:3), 0.5_dp), symmetric_power(sample(1:3, 1:3), -0.5_dp))
+    scaling(4:, 4:) = matmul(symmetric_power(body(4:, 4:), 0.5_dp), symmetric_power(sample(4:, 4:), -0.5_dp))
     corrected = matmul(scaling, matmul(corrected, transpose(scaling)))
     corrected = 0.5_dp * (corrected + transpose(corrected))
     call free_body_response(corrected, v, t, ok)
     velocity = reshape(v, [6 * n_strain_modes])
     stresslet = reshape(t, [n_strain_modes**2])
   end subroutine sample_flow
-
-  pure real(dp) function determinant3(a)
-    real(dp), intent(in) :: a(3, 3)
-    determinant3 = a(1, 1) * (a(2, 2) * a(3, 3) - a(2, 3) * a(3, 2)) - a(1, 2) * (a(2, 1) * a(3, 3) - a(2, 3) * a(3, 1)) &
-                   + a(1, 3) * (a(2, 1) * a(3, 2) - a(2, 2) * a(3, 1))
-  end function determinant3
 
   !> The sample's friction K corrected by the ratio of its body's and its own equivalent
   !> ellipsoids' frictions B and S (docs/theory.md T18, step 2): T K T^T with T = B^(1/2) S^(-1/2)
@@ -784,14 +778,15 @@ contains
     end do
   end function ratio_scaling
 
-  !> a^p of a symmetric positive definite 3x3 matrix, by its eigenvalues.
+  !> a^p of a symmetric positive definite matrix, by its eigenvalues.
   function symmetric_power(a, p) result(power)
-    real(dp), intent(in) :: a(3, 3), p
-    real(dp) :: power(3, 3), vectors(3, 3), values(3), work(64)
-    integer :: info
+    real(dp), intent(in) :: a(:, :), p
+    real(dp) :: power(size(a, 1), size(a, 1)), vectors(size(a, 1), size(a, 1)), values(size(a, 1)), work(64 * size(a, 1))
+    integer :: info, n
+    n = size(a, 1)
     vectors = a
-    call dsyev('V', 'U', 3, vectors, 3, values, work, size(work), info)
-    power = matmul(vectors * spread(max(values, tiny(1.0_dp))**p, 1, 3), transpose(vectors))
+    call dsyev('V', 'U', n, vectors, n, values, work, size(work), info)
+    power = matmul(vectors * spread(max(values, tiny(1.0_dp))**p, 1, n), transpose(vectors))
   end function symmetric_power
 
   !> Running mean of the moment fills.
