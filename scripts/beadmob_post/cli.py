@@ -158,7 +158,30 @@ def _hydro_summary(result: BeadResult) -> dict[str, Any] | None:
         "multipole_coefficients": listed(hydro.multipole_coefficients),
         "centre_of_mobility": listed(hydro.centre_of_mobility),
         "phase_seconds": phases,
+        "diffusion": _diffusion_summary(result),
     }
+
+
+def _diffusion_summary(result: BeadResult) -> dict[str, Any] | None:
+    """The main numbers of ``diffusion`` (kT = eta = 1), None when the mobility is not usable."""
+    from beadmob_post.brownian import diffusion_analysis
+
+    try:
+        d = diffusion_analysis(result)
+    except (ResultFileError, ValueError, np.linalg.LinAlgError):
+        return None
+    summary = {
+        "translational_diffusion": d.translational, "stokes_radius": d.stokes_radius,
+        "rotational_diffusion": d.rotational.tolist(), "harmonic_mean_relaxation_time": d.harmonic_mean_time,
+        "centre_of_diffusion": d.centre_of_diffusion.tolist(),
+    }
+    if d.flow is not None:
+        summary.update({
+            "intrinsic_viscosity_zero_shear": d.flow.intrinsic_viscosity.zero_shear,
+            "intrinsic_viscosity_high_frequency": d.flow.intrinsic_viscosity.high_frequency,
+            "bretherton_constant": d.flow.bretherton.constant, "axisymmetric": d.flow.bretherton.axisymmetric,
+        })
+    return summary
 
 
 def format_summary(summary: dict[str, Any]) -> str:
@@ -206,6 +229,19 @@ def format_summary(summary: dict[str, Any]) -> str:
                          "multipole')")
         if hydro.get("centre_of_mobility") is not None:
             lines.append(f"centre of mobility: {vector(hydro['centre_of_mobility'])} d")
+        diffusion = hydro.get("diffusion")
+        if diffusion is not None:
+            lines.append(f"diffusion:        D_t = {diffusion['translational_diffusion']:.4g}, R_s = "
+                         f"{diffusion['stokes_radius']:.4g} d, D_r = "
+                         + ", ".join(f"{v:.4g}" for v in diffusion["rotational_diffusion"])
+                         + f", tau_h = {diffusion['harmonic_mean_relaxation_time']:.4g} (kT = eta = 1; see "
+                         "'diffusion')")
+            if "intrinsic_viscosity_zero_shear" in diffusion:
+                lines.append(f"flow:             [eta] = {diffusion['intrinsic_viscosity_zero_shear']:.4g} "
+                             f"(zero shear; {diffusion['intrinsic_viscosity_high_frequency']:.4g} without "
+                             f"Brownian motion), Bretherton B = {diffusion['bretherton_constant']:.4g}"
+                             + ("" if diffusion["axisymmetric"] else " (not a body of revolution)")
+                             + " (see 'diffusion', 'orbit')")
         if hydro.get("phase_seconds"):
             lines.append("wall time:        " + ", ".join(
                 f"{name} {value:.3g} s" for name, value in hydro["phase_seconds"].items()))

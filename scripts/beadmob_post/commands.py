@@ -1,5 +1,5 @@
 """The analysis subcommands of ``beadmob-post`` (coefficients, classify, dynamics, fit,
-table, compare, plot-coefficients, plot-bench, report).
+table, compare, plot-coefficients, plot-bench, report, diffusion, orbit).
 
 Each handler takes the parsed arguments and the output stream and returns the exit status;
 failures raise :class:`CommandError` (or ResultFileError / ValueError subclasses), which
@@ -166,6 +166,54 @@ def add_analysis_commands(commands) -> None:
     p.add_argument("--allow-unconverged", action="store_true", help=argparse.SUPPRESS)
     _friction_option(p)
     p.set_defaults(handler=run_report)
+
+    p = commands.add_parser(
+        "diffusion", help="diffusion tensor, Stokes radius, relaxation times; [eta] and B with /flow",
+        description="From the mobility: the centre of diffusion (Harvey & Garcia de la Torre 1980; the "
+        "same point as beadmob's centre of mobility), the diffusion tensor D = kT M there, D_t = tr(D_tt)/3, "
+        "the Stokes radius kT/(6 pi eta D_t), the rotational diffusion constants (eigenvalues of D_rr), the "
+        "five l = 2 relaxation times (Favro 1960) and their harmonic mean. With /flow: the intrinsic "
+        "viscosity [eta] (eta_eff = eta (1 + [eta] phi)) without and with rotary Brownian motion (zero "
+        "shear), and Bretherton's constant B. Dimensionless (kT = eta = 1, lengths in the file's unit) "
+        "unless --temperature, --viscosity and --length-unit are given.")
+    _file_argument(p)
+    p.add_argument("--temperature", type=float, metavar="K", help="temperature T (K)")
+    p.add_argument("--viscosity", type=float, metavar="PA_S", help="solvent viscosity eta (Pa s)")
+    p.add_argument("--length-unit", type=float, metavar="M",
+                   help="metres per length unit of the file (the bead diameter d)")
+    p.add_argument("--volume", type=float, metavar="V",
+                   help="the body's volume in the file's length unit cubed (default: /continuum volume, "
+                   "else N pi/6, N beads of diameter 1)")
+    p.add_argument("--allow-unconverged", action="store_true",
+                   help="use a file whose solves beadmob flagged as not converged")
+    _friction_option(p)
+    p.add_argument("--json", action="store_true", help="print as JSON")
+    p.set_defaults(handler=run_diffusion)
+
+    p = commands.add_parser(
+        "orbit", help="orientation of the body in simple shear (Jeffery orbits for any shape)",
+        description="Integrate the orientation of the force- and torque-free body in the shear flow "
+        "u = gamma y e_x from /flow/velocity_per_strain (any shape; vorticity along -z), and the drift of "
+        "its centre relative to the flow, to the strain gamma t = --strain. Prints each body axis's "
+        "period (its return to its start) and, for a body of revolution, Bretherton's constant, "
+        "Jeffery's period and orbit constant.")
+    _file_argument(p)
+    p.add_argument("--strain", type=float, default=100.0, help="final strain gamma t (default 100)")
+    p.add_argument("--initial-axis", metavar="X,Y,Z",
+                   help="initial lab direction of the body axis --axis (default: the body as in the input)")
+    p.add_argument("--axis", choices=("x", "y", "z", "symmetry"),
+                   help="the body axis set by --initial-axis: x, y, z of /geometry/body_axes or the "
+                   "symmetry axis (default: symmetry for a body of revolution, else z)")
+    p.add_argument("--samples", type=int, default=2001, help="output samples (default 2001)")
+    p.add_argument("--method", choices=("quaternion", "rkmk"), default="quaternion",
+                   help="integrator: scipy DOP853 on the quaternion (default) or Munthe-Kaas RK4 on SO(3)")
+    p.add_argument("--tolerance", type=float, default=1e-5,
+                   help="largest distance of a return to the start (default 1e-5)")
+    p.add_argument("--allow-unconverged", action="store_true",
+                   help="use a /flow whose strain solves beadmob flagged as not converged")
+    p.add_argument("--plot", type=Path, metavar="OUT", help="angles of the body axes against the strain (.png/.pdf)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(handler=run_orbit)
 
 
 def _file_argument(parser, optional: bool = False) -> None:
@@ -624,6 +672,202 @@ def run_report(arguments, out: TextIO) -> int:
             written.append(plot_beads(load_result(path), directory / f"{path.stem}_beads.png"))
     for path in written:
         out.write(f"wrote {path}\n")
+    return 0
+
+
+# ----------------------------------------------------------------------------- diffusion
+def _diffusion(arguments):
+    from beadmob_post.brownian import diffusion_analysis, physical_scales
+
+    try:
+        scales = physical_scales(arguments.temperature, arguments.viscosity, arguments.length_unit)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from exc
+    if arguments.volume is not None and not arguments.volume > 0:
+        raise CommandError(f"--volume must be positive, got {arguments.volume}")
+    return diffusion_analysis(load_result(arguments.file), volume=arguments.volume,
+                              allow_unconverged=arguments.allow_unconverged, friction=arguments.friction,
+                              scales=scales)
+
+
+def _pm(errors, name, index=None, fmt=".3g") -> str:
+    """' +- bar' when the error bar is known."""
+    if not errors or errors.get(name) is None:
+        return ""
+    value = errors[name] if index is None else errors[name][index]
+    return f" +- {value:{fmt}}"
+
+
+def run_diffusion(arguments, out: TextIO) -> int:
+    from beadmob_post.brownian import BEAD_VOLUME_SOURCE
+
+    d = _diffusion(arguments)
+    if arguments.json:
+        _write_json(out, d.as_dict())
+        return 0
+    unit, e = d.length_unit, d.errors
+
+    def vector(values) -> str:
+        return "(" + ", ".join(f"{v:.6g}" for v in values) + ")"
+
+    distance = float(np.linalg.norm(d.centre_of_diffusion - d.reference_point))
+    lines = [f"file:             {d.path} (mobility from /{d.source})",
+             f"units:            kT = eta = 1, lengths in {unit}"
+             + ("" if d.physical else " (--temperature, --viscosity, --length-unit for SI)"),
+             f"reference point:  {vector(d.reference_point)} {unit} "
+             f"({'centre of mass' if d.source == 'hydrodynamics' else '/continuum centroid'})",
+             f"centre of diffusion: {vector(d.centre_of_diffusion)} {unit}, {distance:.4g} {unit} from it"]
+    if d.file_centre_of_mobility is not None:
+        gap = float(np.linalg.norm(d.file_centre_of_mobility - d.centre_of_diffusion))
+        lines.append(f"  = beadmob's centre of mobility {vector(d.file_centre_of_mobility)} (difference {gap:.2g})")
+    lines += [f"D_t:              {d.translational:.6g}{_pm(e, 'translational_diffusion')} "
+              f"(tr D_tt / 3 at the centre of diffusion; principal {vector(d.translational_principal)})",
+              f"Stokes radius:    {d.stokes_radius:.6g}{_pm(e, 'stokes_radius')} {unit} (kT / (6 pi eta D_t))",
+              "D_r:              " + ", ".join(f"{v:.6g}{_pm(e, 'rotational_diffusion', k)}"
+                                               for k, v in enumerate(d.rotational))
+              + " (eigenvalues of D_rr)"]
+    for k, axis in enumerate(d.rotational_axes):
+        lines.append(f"  axis {k + 1}:         {vector(axis)}")
+    lines += ["tau_1..tau_5:     " + ", ".join(f"{v:.6g}" for v in d.relaxation_times)
+              + " (l = 2 relaxation times, Favro 1960)",
+              f"tau_h:            {d.harmonic_mean_time:.6g}{_pm(e, 'harmonic_mean_relaxation_time')} "
+              "(harmonic mean = 1/(6 mean D_r))",
+              f"volume:           {d.volume:.6g} {unit}^3 ({d.volume_source}"
+              + (")" if d.volume_source != BEAD_VOLUME_SOURCE or d.flow is None else
+                 "; [eta] scales as 1/volume: --volume gives the body's own, e.g. the shape's, or about "
+                 f"N {unit}^3 for beads on a cubic lattice)")]
+    if d.flow is None:
+        lines.append("flow:             no /flow in the file ([eta] and B need &hydrodynamics flow = .true.)")
+    else:
+        f, b = d.flow, d.flow.bretherton
+        fe = f.errors
+        lines += [f"[eta] zero shear: {f.intrinsic_viscosity.zero_shear:.6g}{_pm(fe, 'zero_shear')} "
+                  "(rotary Brownian, eta_eff = eta (1 + [eta] phi))",
+                  f"[eta] no Brownian: {f.intrinsic_viscosity.high_frequency:.6g}{_pm(fe, 'high_frequency')} "
+                  "(isotropic average of the stresslet; high-frequency limit)",
+                  f"  Brownian part:  {f.intrinsic_viscosity.brownian:.6g}{_pm(fe, 'brownian')}",
+                  f"Bretherton B:     {b.constant:.6g}{_pm(fe, 'bretherton')} about {vector(b.axis)} "
+                  f"(relative residual {b.residual:.2g}: "
+                  + ("a body of revolution)" if b.axisymmetric else "NOT of the form B p x (E.p))")]
+        if b.axisymmetric and b.aspect_ratio is not None:
+            lines.append(f"  r_e, period:    equivalent aspect ratio {b.aspect_ratio:.6g}, Jeffery period "
+                         f"{b.jeffery_period:.6g} / shear rate")
+        lines.append("Jeffery lambda:   " + ", ".join(f"{v:.6g}" for v in f.jeffery_constants)
+                     + f" (D_r axes 1, 2, 3; outside the triaxial form {f.jeffery_off_pattern:.2g})")
+    if d.physical is not None:
+        p = d.as_dict()["physical"]
+        lines += [f"physical:         T = {d.physical.temperature_K:g} K, eta = {d.physical.viscosity_Pa_s:g} Pa s, "
+                  f"1 {unit} = {d.physical.length_m:g} m",
+                  f"  D_t = {p['translational_diffusion_m2_s']:.6g} m^2/s, R_s = {p['stokes_radius_m']:.6g} m",
+                  "  D_r = " + ", ".join(f"{v:.6g}" for v in p["rotational_diffusion_1_s"]) + " 1/s",
+                  "  tau = " + ", ".join(f"{v:.6g}" for v in p["relaxation_times_s"])
+                  + f" s, tau_h = {p['harmonic_mean_relaxation_time_s']:.6g} s"]
+    if e is not None:
+        lines.append("error bars:       first order from /hydrodynamics/body_mobility_error"
+                     + (" and /flow/*_error" if d.flow is not None and d.flow.errors else "") + " (worst case)")
+    out.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ----------------------------------------------------------------------------- orbit
+def _parse_direction(text: str) -> np.ndarray:
+    try:
+        values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        values = np.array([])
+    if values.shape != (3,) or not np.all(np.isfinite(values)) or np.linalg.norm(values) == 0:
+        raise CommandError(f"--initial-axis needs three numbers X,Y,Z (not all zero), got {text!r}")
+    return values / np.linalg.norm(values)
+
+
+def run_orbit(arguments, out: TextIO) -> int:
+    from beadmob_post import orbit
+    from beadmob_post.brownian import bretherton_fit, canonical_flow, require_flow
+    from beadmob_post.mobility import MobilityError, checked_mobility
+
+    if not (arguments.strain > 0 and np.isfinite(arguments.strain)):
+        raise CommandError(f"--strain must be positive, got {arguments.strain}")
+    if arguments.samples < 2:
+        raise CommandError(f"--samples must be at least 2, got {arguments.samples}")
+    result = load_result(arguments.file)
+    velocity = canonical_flow(require_flow(result, arguments.allow_unconverged))[0]
+    candidates = [result.body_axes]
+    try:
+        mobility = checked_mobility(result, allow_unconverged=True)
+        candidates.insert(0, np.linalg.eigh(mobility[3:6, 3:6])[1].T)
+    except MobilityError:
+        pass
+    fit = bretherton_fit(velocity[3:6], np.vstack(candidates))
+    axes = {f"body {name}": result.body_axes[k] for k, name in enumerate("xyz")}
+    if fit.axisymmetric and np.linalg.norm(velocity[3:6]) > 0:
+        # the symmetry axis is followed too; named with the body axis it coincides with, if any
+        same = [name for name, a in axes.items() if abs(abs(a @ fit.axis) - 1) < 1e-9]
+        if same:
+            axes = {(f"{name} (symmetry)" if name == same[0] else name): a for name, a in axes.items()}
+        else:
+            axes["symmetry axis"] = fit.axis
+    chosen = arguments.axis or ("symmetry" if fit.axisymmetric else "z")
+    if chosen == "symmetry":
+        if not fit.axisymmetric:
+            raise CommandError(f"{arguments.file}: the body is not a body of revolution for its rotation in "
+                               f"flow (residual {fit.residual:.2g} of Bretherton's form); use --axis x, y or z")
+        followed = fit.axis
+    else:
+        followed = result.body_axes["xyz".index(chosen)]
+    start = np.eye(3)
+    if arguments.initial_axis is not None:
+        start = orbit.minimal_rotation(followed, _parse_direction(arguments.initial_axis))
+    trajectory = orbit.integrate(velocity, start, arguments.strain, samples=arguments.samples,
+                                 method=arguments.method)
+    data = orbit.summary(trajectory, axes, fit, tolerance=arguments.tolerance)
+    data.update({"file": str(arguments.file), "initial_axis": chosen,
+                 "initial_direction": (start @ followed).tolist()})
+    if arguments.plot is not None:
+        from beadmob_post.plots import save
+        save(orbit.orbit_figure(trajectory, axes, f"{result.shape_name}: orientation in shear u = gamma y e_x"),
+             arguments.plot)
+        data["plot"] = str(arguments.plot)
+    if arguments.json:
+        _write_json(out, data)
+        return 0
+
+    def vector(values) -> str:
+        return "(" + ", ".join(f"{v:.4g}" for v in values) + ")"
+
+    lines = [f"file:             {arguments.file} in u = gamma y e_x (vorticity -z) to strain {arguments.strain:g} "
+             f"({arguments.method})",
+             f"start:            {chosen} axis along {vector(start @ followed)}"]
+    width = max(18, max(len(name) for name in data["axes"]) + 2)
+    for name, item in data["axes"].items():
+        if item["fixed"]:
+            text = "does not move"
+        elif item["period"] is None:
+            text = "no return within the strain"
+        else:
+            text = (f"period {item['period']:.8g} (closure {item['closure']:.1g}, {item['returns']} returns, "
+                    f"mean {item['mean_period']:.8g})")
+        lines.append(f"{name + ':':<{width}}{vector(item['initial_lab'])} -> {vector(item['final_lab'])}; {text}")
+    whole = data["orientation"]
+    lines.append("orientation:      " + ("no return within the strain" if whole["period"] is None else
+                                         f"period {whole['period']:.8g} (closure {whole['closure']:.1g})"))
+    b = data["bretherton"]
+    if fit.axisymmetric:
+        text = f"Bretherton B = {b['constant']:.6g} about {vector(b['axis'])}"
+        if b["jeffery_period"] is not None:
+            text += f"; Jeffery period {b['jeffery_period']:.8g}"
+        if b.get("orbit_constant") is not None:
+            text += (f"; orbit constant C = {b['orbit_constant']:.6g} (relative change "
+                     f"{b['orbit_constant_relative_change']:.1g})")
+        lines.append("revolution:       " + text)
+    else:
+        lines.append(f"revolution:       no (residual {b['residual']:.2g} of Bretherton's form)")
+    drift = data["drift"]
+    lines.append(f"drift:            mean {vector(drift['mean'])}, largest {drift['largest']:.3g} "
+                 f"(velocity / (shear rate x length unit)); centre at {vector(drift['final_position'])}")
+    lines.append(f"orthogonality:    max |Q^T Q - I| = {data['orthogonality_error']:.1g}")
+    if arguments.plot is not None:
+        lines.append(f"wrote {arguments.plot}")
+    out.write("\n".join(lines) + "\n")
     return 0
 
 

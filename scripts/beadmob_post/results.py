@@ -62,6 +62,9 @@ class Hydrodynamics:
     #: The companion friction of order L - 1 on the same beads (input coordinates, same reference
     #: point), from which the run's error bar is made; None when the run had no error estimate.
     companion_friction: np.ndarray | None = None
+    #: The estimated absolute error of every entry of ``body_mobility`` (its frame: ``body_axes``);
+    #: None when the file has no error estimate.
+    body_mobility_error: np.ndarray | None = None
 
     @property
     def multipole_order(self) -> int | None:
@@ -78,6 +81,27 @@ class Hydrodynamics:
         """False when beadmob flagged a non-converged solve, None when not recorded."""
         value = self.attributes.get("all_converged")
         return bool(value) if _is_real_number(value) else None
+
+
+@dataclass(frozen=True)
+class Flow:
+    """``/flow`` of a result file (``&hydrodynamics flow = .true.``): the force- and torque-free
+    body in a linear ambient flow u(r) = U + Omega x (r - R0) + E.(r - R0), R0 the centre of mass.
+
+    E = sum_k e_k E_k over the five orthonormal symmetric traceless ``strain_modes``; the body
+    moves with (U, Omega) + ``velocity_per_strain`` e and has the stresslet (Batchelor 1970)
+    sum_l s_l E_l with s = ``stresslet_per_strain`` e (model coordinates, eta = 1, lengths in d).
+    Arrays are read as h5py shows them, [row, column]; a (5, 6) velocity_per_strain or (3, 3, 5)
+    strain_modes (the Fortran order read the other way) is turned to (6, 5) and (5, 3, 3).
+    """
+
+    strain_modes: np.ndarray
+    velocity_per_strain: np.ndarray
+    stresslet_per_strain: np.ndarray
+    #: absolute error bars of the two responses; None when the file has none
+    velocity_per_strain_error: np.ndarray | None = None
+    stresslet_per_strain_error: np.ndarray | None = None
+    attributes: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -113,6 +137,8 @@ class BeadResult:
     mirror_planes: np.ndarray | None = None
     #: ``/hydrodynamics`` when the run computed it, else None.
     hydrodynamics: Hydrodynamics | None = None
+    #: ``/flow`` when the run computed the response to a linear flow, else None.
+    flow: Flow | None = None
 
     def body_coordinates(self) -> np.ndarray:
         """Bead centres in the body frame: origin at the centre of mass, axes ``body_axes``.
@@ -214,6 +240,10 @@ def _read_open_file(path: Path, handle: h5py.File) -> BeadResult:
     if "hydrodynamics" in handle:
         hydrodynamics = _read_hydrodynamics(path, _require_group(path, handle, "hydrodynamics"))
 
+    flow = None
+    if "flow" in handle:
+        flow = _read_flow(path, _require_group(path, handle, "flow"))
+
     input_source = None
     if "input" in handle and "source" in handle["input"].attrs:
         input_source = decode_value(handle["input"].attrs["source"])
@@ -238,6 +268,7 @@ def _read_open_file(path: Path, handle: h5py.File) -> BeadResult:
         units=units,
         mirror_planes=mirror_planes,
         hydrodynamics=hydrodynamics,
+        flow=flow,
     )
 
 
@@ -273,6 +304,40 @@ def _read_hydrodynamics(path: Path, group: h5py.Group) -> Hydrodynamics:
         centre_of_mobility=optional("centre_of_mobility", (3,)),
         mobility_at_centre_of_mobility=optional("mobility_at_centre_of_mobility", (6, 6)),
         companion_friction=optional("companion_friction", (6, 6)),
+        body_mobility_error=optional("body_mobility_error", (6, 6)),
+    )
+
+
+#: Tolerance on the orthonormality of /flow/strain_modes.
+_MODES_TOLERANCE = 1e-6
+
+
+def _read_flow(path: Path, group: h5py.Group) -> Flow:
+    """Read ``/flow``; the two error datasets are optional."""
+    def read(name: str, shapes: tuple[tuple[int, ...], ...], required: bool = True) -> np.ndarray | None:
+        if name not in group and not required:
+            return None
+        values = _read_float_array(path, group, name)
+        if values.shape == shapes[0]:
+            return _read_only(values)
+        if len(shapes) > 1 and values.shape == shapes[1]:
+            # The Fortran array read in the other index order.
+            return _read_only(np.ascontiguousarray(np.moveaxis(values, -1, 0) if values.ndim == 3 else values.T))
+        raise ResultFileError(f"{path}: dataset /flow/{name} has shape {values.shape}, expected {shapes[0]}")
+
+    modes = read("strain_modes", ((5, 3, 3), (3, 3, 5)))
+    gram = np.einsum("kij,lij->kl", modes, modes)
+    if (not np.allclose(gram, np.eye(5), atol=_MODES_TOLERANCE)
+            or not np.allclose(modes, np.swapaxes(modes, 1, 2), atol=_MODES_TOLERANCE)
+            or not np.allclose(np.trace(modes, axis1=1, axis2=2), 0.0, atol=_MODES_TOLERANCE)):
+        raise ResultFileError(f"{path}: /flow/strain_modes are not five orthonormal symmetric traceless tensors")
+    return Flow(
+        strain_modes=modes,
+        velocity_per_strain=read("velocity_per_strain", ((6, 5), (5, 6))),
+        stresslet_per_strain=read("stresslet_per_strain", ((5, 5),)),
+        velocity_per_strain_error=read("velocity_per_strain_error", ((6, 5), (5, 6)), required=False),
+        stresslet_per_strain_error=read("stresslet_per_strain_error", ((5, 5),), required=False),
+        attributes={name: decode_value(value) for name, value in group.attrs.items()},
     )
 
 
