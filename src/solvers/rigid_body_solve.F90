@@ -54,6 +54,8 @@ module beadmob_rigid_body_solve
     real(dp) :: condition_estimate = 0.0_dp
     !> 1: solved together (lockstep_cg.F90), 0: one KSPSolve after another
     integer :: solved_together = 0
+    !> Vectors of the coarse space the strain solves were deflated by (0: none)
+    integer :: deflation_vectors = 0
     !> ||G - G^T|| / ||G|| of the plain estimate of the grand resistance G_mn = c_m . q_n
     real(dp) :: plain_symmetry_error = 0.0_dp
   end type strain_statistics_t
@@ -528,7 +530,8 @@ contains
     real(dp), intent(in) :: projection(:, :), own_strain(:, :), centres(:, :), reference_point(3)
     real(dp), intent(out) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
     type(strain_statistics_t), intent(out) :: stats
-    Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes)
+    Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes), all_rhs(6 + n_strain_modes)
+    type(deflation_space_t) :: coarse_space
     PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
     PetscInt :: iterations
@@ -568,8 +571,14 @@ contains
 
     PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess)), ierr))
     if (solver%together) then
+      ! Deflated by the preconditioned right-hand sides of all eleven problems when the motions
+      ! were (deflation_space.F90): the strains' slow part is the body's large-scale response.
+      all_rhs = [solver%rhs, rhs]
+      call make_deflation_space(solver%op, solver%pc, all_rhs, [(solver%deflate, k=1, size(all_rhs))], coarse_space)
+      stats%deflation_vectors = coarse_space%size
       call solve_lockstep(solver%op, solver%pc, rhs, solution, allocated(solver%strain_initial_guess), solver%limits, &
-                          finished, stopped)
+                          finished, stopped, coarse_space)
+      call destroy_deflation_space(coarse_space)
       stats%solved_together = 1
     else
       do k = 1, n_strain_modes
