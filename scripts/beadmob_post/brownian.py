@@ -78,7 +78,7 @@ BOLTZMANN = 1.380649e-23
 #: Relative residual below which the rotation response counts as Bretherton's form.
 AXISYMMETRY_TOLERANCE = 1e-3
 #: How the default volume of a bead model is named.
-BEAD_VOLUME_SOURCE = "N pi d^3/6, beads of diameter d"
+BEAD_VOLUME_SOURCE = "N d^3, a lattice cell per bead"
 #: Entries of C (rotation per unit strain amplitude, dimensionless) below this are rounding noise.
 NEGLIGIBLE_ROTATION = 1e-12
 
@@ -474,7 +474,7 @@ def diffusion_analysis(result: BeadResult, volume: float | None = None, allow_un
     The mobility is /hydrodynamics' (checked as for ``coefficients``, about the centre of mass), else
     a continuum job's /continuum mobility (about /continuum/centroid, in the shape's unit; its flow
     response /continuum velocity_per_strain, ... when the file has no /flow). The volume is
-    ``volume`` when given, else /continuum's, else N pi/6 (beads of diameter 1). Error bars come from
+    ``volume`` when given, else /continuum's, else N d^3 (a cubic lattice cell per bead, d = 1). Error bars come from
     /hydrodynamics/body_mobility_error (or /continuum/mobility_error) and the flow's bars.
     """
     path = result.path
@@ -495,7 +495,7 @@ def diffusion_analysis(result: BeadResult, volume: float | None = None, allow_un
     elif continuum is not None and continuum["volume"] is not None:
         volume, volume_source = continuum["volume"], "/continuum volume"
     else:
-        volume, volume_source = result.n_beads * np.pi / 6.0, BEAD_VOLUME_SOURCE
+        volume, volume_source = float(result.n_beads), BEAD_VOLUME_SOURCE
 
     numbers = _diffusion_numbers(mobility, reference)
     centre, moved = centre_of_diffusion(mobility, reference)

@@ -183,7 +183,7 @@ def add_analysis_commands(commands) -> None:
                    help="metres per length unit of the file (the bead diameter d)")
     p.add_argument("--volume", type=float, metavar="V",
                    help="the body's volume in the file's length unit cubed (default: /continuum volume, "
-                   "else N pi/6, N beads of diameter 1)")
+                   "else N d^3, a lattice cell per bead)")
     p.add_argument("--allow-unconverged", action="store_true",
                    help="use a file whose solves beadmob flagged as not converged")
     _friction_option(p)
@@ -734,8 +734,7 @@ def run_diffusion(arguments, out: TextIO) -> int:
               "(harmonic mean = 1/(6 mean D_r))",
               f"volume:           {d.volume:.6g} {unit}^3 ({d.volume_source}"
               + (")" if d.volume_source != BEAD_VOLUME_SOURCE or d.flow is None else
-                 "; [eta] scales as 1/volume: --volume gives the body's own, e.g. the shape's, or about "
-                 f"N {unit}^3 for beads on a cubic lattice)")]
+                 "; [eta] scales as 1/volume: --volume gives the body's own, e.g. the shape's)")]
     if d.flow is None:
         lines.append("flow:             no /flow in the file ([eta] and B need &hydrodynamics flow = .true.)")
     else:

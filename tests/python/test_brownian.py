@@ -121,7 +121,7 @@ def test_sphere_diffusion_and_relaxation(make_result_file):
     tau = 1 / (6 / (8 * np.pi * SPHERE**3))
     assert d.relaxation_times == pytest.approx([tau] * 5, rel=1e-12)
     assert d.harmonic_mean_time == pytest.approx(tau, rel=1e-12)
-    assert d.volume == pytest.approx(4 * np.pi / 6)          # 4 beads of diameter 1
+    assert d.volume == pytest.approx(4.0)                    # 4 lattice cells of d^3
     assert d.flow is None
 
 
