@@ -18,6 +18,8 @@ program's own promises.
 5. On 2 ranks: the same numbers as on 1 rank within 1e-7 (Krylov tolerance 1e-10).
 6. Refused with a message and a non-zero exit: flow with lubrication, flow with some motions only.
 7. The continuum job of a sphere (three levels, two offsets): the exact stresslet within its bar.
+8. Two spheres rigidly joined, 2 d and 1.5 d apart, against the two-sphere resistance functions of
+   Jeffrey & Onishi (1984): to 1e-10 at L = 12, within the bar at L = 2.
 """
 import os
 import subprocess
@@ -142,6 +144,33 @@ check(bool(np.all(np.abs(stresslet - exact) <= bar)), f"continuum sphere: stress
 rotation, rotation_bar = c["velocity_per_strain"][()][3:], c["velocity_per_strain_error"][()][3:]
 check(bool(np.all(np.abs(rotation) <= rotation_bar + 1e-9)), f"continuum sphere: rotation per strain "
       f"{np.abs(rotation).max():.1e} within its bar")
+
+# 8. Two spheres rigidly joined (a doublet) against the Jeffrey & Onishi (1984) / Jeffrey (1992)
+#    resistance functions summed to convergence (scripts/beadmob_post/two_sphere_flow.py, itself
+#    checked against Wilson's (2013) Lamb's-method values): centres 2 d (r/a = 4, on the lattice)
+#    and 1.5 d (r/a = 3, off it) apart. At L = 12 the multipole series has converged (1e-10); at
+#    L = 2 each entry lies within its bar.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+from beadmob_post.two_sphere_flow import doublet_flow  # noqa: E402
+for distance in (2.0, 1.5):
+    exact = doublet_flow(2 * distance, radius=0.5)
+    exact_v, exact_t = exact["velocity_per_strain"], exact["stresslet_per_strain"]
+    pair = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, distance]])
+    np.savetxt(os.path.join(workdir, "pair.txt"), pair)
+    for order, bound in ((12, 1e-10), (2, None)):
+        g = run(f"flow_doublet_{order}", "&shape name = 'bead_file', file = 'pair.txt' /",
+                hydro=f"flow = .true., multipole_order = {order}, krylov_rtol = 1e-12")["flow"]
+        v, t = g["velocity_per_strain"][()], g["stresslet_per_strain"][()]
+        dv = np.abs(v - exact_v).max() / np.abs(exact_v).max()
+        dt = np.abs(t - exact_t).max() / np.abs(exact_t).max()
+        if bound is not None:
+            check(max(dv, dt) < bound, f"doublet r/a = {2 * distance:g}, L = {order}: V within {dv:.1e}, T within "
+                  f"{dt:.1e} of the two-sphere series (B = {exact['bretherton']:.6f})")
+        else:
+            inside = (np.all(np.abs(v - exact_v) <= g["velocity_per_strain_error"][()] + 1e-12)
+                      and np.all(np.abs(t - exact_t) <= g["stresslet_per_strain_error"][()] + 1e-12))
+            check(bool(inside), f"doublet r/a = {2 * distance:g}, L = 2: every entry within its bar "
+                  f"(errors {dv:.1e}, {dt:.1e})")
 
 # 6. Refusals.
 one_bead = "&shape name = 'bead_file', file = 'one_bead.txt' /"
