@@ -79,7 +79,7 @@ contains
       -1.0_dp / sqrt(2.0_dp), -1.0_dp / sqrt(6.0_dp), 0.0_dp, 2.0_dp / sqrt(6.0_dp)], [2, 3])
     real(dp) :: squares(3), beta(3, 3), rotation(3, n_strain_modes), stresslet(n_strain_modes, n_strain_modes)
     real(dp) :: friction(6, 6), eshelby(3, 3), restricted(2, 2), turn(6 + n_strain_modes, 6 + n_strain_modes)
-    real(dp) :: product_of_axes, volume
+    real(dp) :: product_of_axes, volume, q(3, 3)
     integer :: mode, i, j, k
     squares = semi_axes**2
     beta = pair_integrals(squares)
@@ -109,13 +109,22 @@ contains
     grand(4:6, 7:) = matmul(friction(4:6, 4:6), rotation)
     grand(7:, 4:6) = transpose(grand(4:6, 7:))
     grand(7:, 7:) = stresslet + matmul(transpose(rotation), grand(4:6, 7:))
-    ! Into the coordinates of `axes`: diag(Q, Q, D(Q)).
+    ! Into the coordinates of `axes`: diag(Q, Q, D(Q)), Q proper (an angular velocity is a
+    ! pseudovector: a reflection would turn the sign of the rotation-strain coupling; the
+    ! ellipsoid is the same body with any sign of its axes, so the third is flipped if need be).
+    q = axes
+    if (determinant(q) < 0.0_dp) q(:, 3) = -q(:, 3)
     turn = 0.0_dp
-    turn(1:3, 1:3) = axes
-    turn(4:6, 4:6) = axes
-    turn(7:, 7:) = strain_rotation(axes)
+    turn(1:3, 1:3) = q
+    turn(4:6, 4:6) = q
+    turn(7:, 7:) = strain_rotation(q)
     grand = matmul(turn, matmul(grand, transpose(turn)))
   contains
+    pure real(dp) function determinant(a)
+      real(dp), intent(in) :: a(3, 3)
+      determinant = dot_product(a(:, 1), [a(2, 2) * a(3, 3) - a(3, 2) * a(2, 3), a(3, 2) * a(1, 3) - a(1, 2) * a(3, 3), &
+                                          a(1, 2) * a(2, 3) - a(2, 2) * a(1, 3)])
+    end function determinant
     pure function inverse2(a) result(inverse)
       real(dp), intent(in) :: a(2, 2)
       real(dp) :: inverse(2, 2)

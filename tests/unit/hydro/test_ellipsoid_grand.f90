@@ -71,5 +71,9 @@ program test_ellipsoid_grand
   turn(7:, 7:) = strain_rotation(q)
   call check(suite, maxval(abs(turned - matmul(turn, matmul(grand, transpose(turn))))) < 1.0e-12_dp * maxval(abs(grand)), &
              'turned axes: R G R^T')
+  ! The same axes with one reversed (an improper matrix) are the same ellipsoid: the same G.
+  q(:, 2) = -q(:, 2)
+  call check(suite, maxval(abs(ellipsoid_grand_resistance([1.6_dp, 1.0_dp, 0.7_dp], q) - turned)) < &
+             1.0e-12_dp * maxval(abs(grand)), 'an axis reversed: the same ellipsoid')
   call finish_tests(suite)
 end program test_ellipsoid_grand
