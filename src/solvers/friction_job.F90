@@ -18,7 +18,8 @@ module beadmob_friction_job
   use beadmob_resources, only: peak_resident_bytes
   use beadmob_rigid_body_solve, only: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, &
                                       find_symmetry, solve_motions, keep_solution_part, bead_forces_of_solutions, &
-                                      destroy_motion_solver, strain_statistics_t, solve_strains, keep_strain_solution_part
+                                      destroy_motion_solver, strain_statistics_t, pose_strains, &
+                                      strain_grand_resistance, keep_strain_solution_part
   use beadmob_linear_flow, only: n_strain_modes, strain_projection, strain_rotation
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
@@ -297,11 +298,11 @@ contains
       if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
         checkpoint_key(settings, centres, reference_point, basis%size, job_result%operator_name))
       solver%stop_after_solves = settings%stop_after_solves
+      if (settings%flow) call pose_strains(solver, projection, own_strain, centres, reference_point)
       call solve_level(solver, op, basis, projection, job_result%multipole_friction, job_result%solves, err)
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
       call mask_uncomputed(job_result%solves, job_result%multipole_friction)
-      if (settings%flow) call solve_strains(solver, projection, own_strain, centres, reference_point, &
-                                            job_result%grand_resistance, job_result%strain_solves)
+      if (settings%flow) call strain_grand_resistance(solver, job_result%grand_resistance, job_result%strain_solves)
       if (allocated(solver%symmetry)) job_result%symmetry_group_order = solver%symmetry%group_order
       ! The pfft far field's error on a sample of rows (theory.md T16), before the solutions go;
       ! its bound needs the whole friction (all six motions)
@@ -406,14 +407,15 @@ contains
                                   report, low_blocks, low_op, settings%solve_apart, &
                                   settings%deflation)
         call move_alloc(low_start, low_solver%initial_guess)
+        if (settings%flow) then
+          call move_alloc(low_strain_start, low_solver%strain_initial_guess)
+          call pose_strains(low_solver, projection(unknowns, :), own_strain(unknowns, :), centres, reference_point)
+        end if
         call solve_level(low_solver, low_op, low, projection(unknowns, :), job_result%companion_multipole_friction, &
                          job_result%companion_solves, err)
         if (.not. err%failed) call mask_uncomputed(job_result%companion_solves, job_result%companion_multipole_friction)
-        if (.not. err%failed .and. settings%flow) then
-          call move_alloc(low_strain_start, low_solver%strain_initial_guess)
-          call solve_strains(low_solver, projection(unknowns, :), own_strain(unknowns, :), centres, reference_point, &
-                             job_result%companion_grand_resistance, job_result%companion_strain_solves)
-        end if
+        if (.not. err%failed .and. settings%flow) call strain_grand_resistance(low_solver, &
+          job_result%companion_grand_resistance, job_result%companion_strain_solves)
         call destroy_motion_solver(low_solver)
       end if
       call low_op%destroy()

@@ -40,7 +40,7 @@ module beadmob_rigid_body_solve
   private
   public :: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, find_symmetry, solve_motions, &
             keep_solution_part, bead_forces_of_solutions, destroy_motion_solver, motion_names, &
-            strain_statistics_t, solve_strains, keep_strain_solution_part, strain_names
+            strain_statistics_t, pose_strains, strain_grand_resistance, keep_strain_solution_part, strain_names
 
   character(len=*), parameter :: motion_names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
   character(len=*), parameter :: strain_names(n_strain_modes) = [character(len=3) :: 'E_1', 'E_2', 'E_3', 'E_4', 'E_5']
@@ -116,6 +116,9 @@ module beadmob_rigid_body_solve
     Vec :: strain_rhs(n_strain_modes), strain_solution(n_strain_modes), strain_residual(n_strain_modes)
     !> Allocated (nb n_local x 5): each strain solve starts from its column (the companion's)
     real(dp), allocatable :: strain_initial_guess(:, :)
+    !> pose_strains was called: solve_motions solves the strains too, recorded here
+    logical :: strains_posed = .false.
+    type(strain_statistics_t) :: strain_stats
     integer :: nb = 0                              ! unknowns per bead
     integer(i8) :: first_bead = 1, n_local = 0, n_total = 0
     !> Rank 0 prints a progress line per solve, beginning with `label` (e.g. 'companion solve')
@@ -294,6 +297,8 @@ contains
     KSPType :: ksp_type
     PCType :: pc_type
     real(dp) :: arm(3), plain(6, 6), correction(6, 6), residual_square, rhs_square
+    Vec, allocatable :: systems(:), unknowns(:)   ! a batch of motions and strains
+    PetscBool :: nonzero_start
     integer(i8) :: i, bead
     integer :: motion, other, nb
 
@@ -369,7 +374,7 @@ contains
     end do
     stopped = .false.
     started = MPI_Wtime()
-    if (size(to_solve) > 0 .and. solver%together) then
+    if (size(to_solve) > 0 .and. solver%together .and. .not. solver%strains_posed) then
       ! The coarse space: the right-hand sides of the motions that share directions with another
       coupled = .true.
       if (allocated(solver%symmetry)) coupled = solver%symmetry%coupled
@@ -378,6 +383,20 @@ contains
       stats%deflation_vectors = coarse_space%size
       call solve_lockstep(solver%op, solver%pc, rhs(to_solve), solution(to_solve), allocated(solver%initial_guess), &
                           solver%limits, finished_together, stopped, coarse_space, converging_together)
+      call destroy_deflation_space(coarse_space)
+    else if (solver%together .and. solver%strains_posed) then
+      ! The motions and the strains in one batch (theory.md T19), deflated by the right-hand sides
+      ! of all eleven problems: the strains' slow part is the body's large-scale response.
+      systems = [rhs(to_solve), solver%strain_rhs]
+      unknowns = [solution(to_solve), solver%strain_solution]
+      call make_deflation_space(solver%op, solver%pc, [rhs, solver%strain_rhs], &
+                                [(solver%deflate, k=1, 6 + n_strain_modes)], coarse_space)
+      stats%deflation_vectors = coarse_space%size
+      solver%strain_stats%deflation_vectors = coarse_space%size
+      solver%strain_stats%solved_together = 1
+      call solve_lockstep(solver%op, solver%pc, systems, unknowns, allocated(solver%initial_guess) .or. &
+                          allocated(solver%strain_initial_guess), solver%limits, finished_with_strains, stopped, &
+                          coarse_space, converging_with_strains)
       call destroy_deflation_space(coarse_space)
     else
       do k = 1, size(to_solve)
@@ -389,6 +408,17 @@ contains
         call finish_solve(to_solve(k), int(iterations), int(reason), largest_value, smallest_value, stopped)
         if (stopped) exit
       end do
+      if (solver%strains_posed .and. .not. stopped) then
+        nonzero_start = merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess))
+        PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, nonzero_start, ierr))
+        do k = 1, n_strain_modes
+          PetscCallA(KSPSolve(solver%ksp, solver%strain_rhs(k), solver%strain_solution(k), ierr))
+          PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
+          PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
+          PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
+          call record_strain_solve(solver, k, int(iterations), int(reason), largest_value, smallest_value)
+        end do
+      end if
     end if
     if (stopped) return
 
@@ -429,6 +459,24 @@ contains
     stats%solved_together = merge(1, 0, size(to_solve) > 0 .and. solver%together)
 
   contains
+
+    !> The batch of motions and strains: system j is motion to_solve(j) up to size(to_solve), then
+    !> strain j - size(to_solve); the strains' residuals are made afterwards (strain_grand_resistance).
+    subroutine finished_with_strains(j, its, why, largest, smallest, stop)
+      integer, intent(in) :: j, its, why
+      real(dp), intent(in) :: largest, smallest
+      logical, intent(inout) :: stop
+      if (j <= size(to_solve)) then
+        call finish_solve(to_solve(j), its, why, largest, smallest, stop)
+      else
+        call record_strain_solve(solver, j - size(to_solve), its, why, largest, smallest)
+      end if
+    end subroutine finished_with_strains
+
+    subroutine converging_with_strains(js)
+      integer, intent(in) :: js(:)
+      if (any(js <= size(to_solve))) call residual_products(to_solve(pack(js, js <= size(to_solve))))
+    end subroutine converging_with_strains
 
     !> solve_lockstep's systems ks converge together: their true residuals' products in one batch.
     subroutine converging_together(ks)
@@ -519,30 +567,20 @@ contains
     end function saved_where
   end subroutine solve_motions
 
-  !> Collective, after solve_motions with all six motions computed. The five strain problems of the
-  !> body held still in the ambient strains E_k about reference_point (theory.md T19):
-  !> c_k = translation of each bead by E_k . (R_i - R_0) plus the bead's own strain (strain_projection
-  !> of linear_flow.f90), solved with the motions' operator and preconditioner (together when the
-  !> motions were), and the grand resistance between the eleven right-hand sides in the variational
-  !> form of solve_motions: grand_mn = c_m . q_n + q_m . r_n (m, n = U_x..W_z, E_1..E_5).
-  subroutine solve_strains(solver, projection, own_strain, centres, reference_point, grand, stats)
+  !> Collective, before solve_motions (all six motions computed). The five strain problems of the
+  !> body held still in the ambient strains E_k about reference_point (theory.md T19): c_k =
+  !> translation of each bead by E_k . (R_i - R_0) plus the bead's own strain (strain_projection of
+  !> linear_flow.f90), started from solver%strain_initial_guess when allocated, else from zero.
+  !> solve_motions then solves them with the motions (in one lockstep batch when the motions run
+  !> together) and strain_grand_resistance reads the result.
+  subroutine pose_strains(solver, projection, own_strain, centres, reference_point)
     type(motion_solver_t), intent(inout) :: solver
     real(dp), intent(in) :: projection(:, :), own_strain(:, :), centres(:, :), reference_point(3)
-    real(dp), intent(out) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
-    type(strain_statistics_t), intent(out) :: stats
-    Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes), all_rhs(6 + n_strain_modes)
-    type(deflation_space_t) :: coarse_space
     PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
-    PetscInt :: iterations
-    KSPConvergedReason :: reason
-    PetscReal :: largest_value, smallest_value, rhs_norm, residual_norm
-    real(dp) :: plain(6 + n_strain_modes, 6 + n_strain_modes), correction(6 + n_strain_modes, 6 + n_strain_modes)
     real(dp) :: arm(3)
     integer(i8) :: i
-    integer :: k, m, n, nb
-    logical :: stopped
-
+    integer :: k, nb
     nb = solver%nb
     if (.not. solver%with_strains) then
       do k = 1, n_strain_modes
@@ -552,43 +590,38 @@ contains
       end do
       solver%with_strains = .true.
     end if
-    associate (rhs => solver%strain_rhs, solution => solver%strain_solution, residual => solver%strain_residual)
+    solver%strains_posed = .true.
+    solver%strain_stats = strain_statistics_t()
     do k = 1, n_strain_modes
-      PetscCallA(VecGetArrayF90(rhs(k), values, ierr))
+      PetscCallA(VecGetArrayF90(solver%strain_rhs(k), values, ierr))
       do i = 1, solver%n_local
         arm = centres(:, solver%first_bead + i - 1) - reference_point
         values(nb * (i - 1) + 1:nb * i) = matmul(projection(:, 1:3), strain_velocity(k, arm)) + own_strain(:, k)
       end do
-      PetscCallA(VecRestoreArrayF90(rhs(k), values, ierr))
+      PetscCallA(VecRestoreArrayF90(solver%strain_rhs(k), values, ierr))
       if (allocated(solver%strain_initial_guess)) then
-        PetscCallA(VecGetArrayF90(solution(k), values, ierr))
+        PetscCallA(VecGetArrayF90(solver%strain_solution(k), values, ierr))
         values = solver%strain_initial_guess(:, k)
-        PetscCallA(VecRestoreArrayF90(solution(k), values, ierr))
+        PetscCallA(VecRestoreArrayF90(solver%strain_solution(k), values, ierr))
       else
-        PetscCallA(VecZeroEntries(solution(k), ierr))
+        PetscCallA(VecZeroEntries(solver%strain_solution(k), ierr))
       end if
     end do
+  end subroutine pose_strains
 
-    PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess)), ierr))
-    if (solver%together) then
-      ! Deflated by the preconditioned right-hand sides of all eleven problems when the motions
-      ! were (deflation_space.F90): the strains' slow part is the body's large-scale response.
-      all_rhs = [solver%rhs, rhs]
-      call make_deflation_space(solver%op, solver%pc, all_rhs, [(solver%deflate, k=1, size(all_rhs))], coarse_space)
-      stats%deflation_vectors = coarse_space%size
-      call solve_lockstep(solver%op, solver%pc, rhs, solution, allocated(solver%strain_initial_guess), solver%limits, &
-                          finished, stopped, coarse_space)
-      call destroy_deflation_space(coarse_space)
-      stats%solved_together = 1
-    else
-      do k = 1, n_strain_modes
-        PetscCallA(KSPSolve(solver%ksp, rhs(k), solution(k), ierr))
-        PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
-        PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
-        PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
-        call finished(k, int(iterations), int(reason), largest_value, smallest_value, stopped)
-      end do
-    end if
+  !> Collective, after solve_motions solved the posed strains: their true residuals and the grand
+  !> resistance between the eleven right-hand sides in the variational form of solve_motions,
+  !> grand_mn = c_m . q_n + q_m . r_n (m, n = U_x..W_z, E_1..E_5), and the strain solves' record.
+  subroutine strain_grand_resistance(solver, grand, stats)
+    type(motion_solver_t), intent(inout) :: solver
+    real(dp), intent(out) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
+    type(strain_statistics_t), intent(out) :: stats
+    Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes)
+    PetscErrorCode :: ierr
+    PetscReal :: rhs_norm, residual_norm
+    real(dp) :: plain(6 + n_strain_modes, 6 + n_strain_modes), correction(6 + n_strain_modes, 6 + n_strain_modes)
+    integer :: k, m, n
+    associate (rhs => solver%strain_rhs, solution => solver%strain_solution, residual => solver%strain_residual)
     ! True residuals r = c - A q (one batched product), kept for the variational form.
     if (associated(solver%op)) then
       call solver%op%apply_many(solution, residual)
@@ -601,7 +634,7 @@ contains
       PetscCallA(VecAYPX(residual(k), -1.0_dp, rhs(k), ierr))
       PetscCallA(VecNorm(residual(k), NORM_2, residual_norm, ierr))
       PetscCallA(VecNorm(rhs(k), NORM_2, rhs_norm, ierr))
-      stats%true_relative_residual(k) = residual_norm / rhs_norm
+      solver%strain_stats%true_relative_residual(k) = residual_norm / rhs_norm
     end do
     c = [solver%rhs, rhs]
     q = [solver%solution, solution]
@@ -612,28 +645,29 @@ contains
       PetscCallA(VecMDot(r(n), size(c), q, correction(:, n), ierr))
     end do
     grand = plain + correction
-    stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
+    solver%strain_stats%plain_symmetry_error = norm2(plain - transpose(plain)) / norm2(plain)
     do m = 1, size(c)   ! symmetric in exact arithmetic (the Galerkin form of a symmetric operator)
       do n = m + 1, size(c)
         grand(m, n) = 0.5_dp * (grand(m, n) + grand(n, m))
         grand(n, m) = grand(m, n)
       end do
     end do
+    stats = solver%strain_stats
     call progress_line(solver%progress, solver%label // ' strains: ' // str(sum(stats%iterations)) // &
-                       ' iterations in all')
+                       ' iterations in all' // trim(merge(', with the motions', '                  ', &
+                       stats%solved_together == 1)))
+  end subroutine strain_grand_resistance
 
-  contains
-
-    subroutine finished(k, its, why, largest, smallest, stop)
-      integer, intent(in) :: k, its, why
-      real(dp), intent(in) :: largest, smallest
-      logical, intent(inout) :: stop
-      stats%iterations(k) = its
-      stats%converged_reason(k) = why
-      if (smallest > 0.0_dp) stats%condition_estimate = max(stats%condition_estimate, largest / smallest)
-      stop = .false.
-    end subroutine finished
-  end subroutine solve_strains
+  !> A strain solve has stopped (its iterations, KSPConvergedReason, B A's extreme eigenvalues).
+  subroutine record_strain_solve(solver, k, its, why, largest, smallest)
+    type(motion_solver_t), intent(inout) :: solver
+    integer, intent(in) :: k, its, why
+    real(dp), intent(in) :: largest, smallest
+    solver%strain_stats%iterations(k) = its
+    solver%strain_stats%converged_reason(k) = why
+    if (smallest > 0.0_dp) solver%strain_stats%condition_estimate = max(solver%strain_stats%condition_estimate, &
+                                                                         largest / smallest)
+  end subroutine record_strain_solve
 
   !> kept (size(unknowns) n_local x 5): the entries `unknowns` of each strain solution (the
   !> companion's start, as keep_solution_part for the motions).
