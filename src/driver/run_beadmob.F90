@@ -25,6 +25,7 @@ module beadmob_run
   use beadmob_mobility, only: mobility_result_t, compute_mobility, mobility_in_frame
   use beadmob_error_estimate, only: estimate_error, add_operator_error
   use beadmob_flow_response, only: flow_response_of
+  use beadmob_brownian_numbers, only: brownian_numbers_of, intrinsic_viscosities
   use beadmob_operator_error_bar, only: estimate_operator_error
   use beadmob_friction_diagnostics, only: diagnose_friction, friction_warning
   use beadmob_accuracy_choice, only: accuracy_choice_t, choose_for_accuracy, max_accuracy_order
@@ -183,6 +184,22 @@ contains
         ! The free body in a linear flow and its bar from the companion (theory.md T19).
         if (job_result%flow) job_result%flow_response = flow_response_of(job_result%grand_resistance, &
           job_result%companion_grand_resistance, job_result%companion_order)
+        if (job_result%flow .and. config%hydrodynamics%multipole_order == 1 .and. ctx%rank == 0) call warn( &
+          'flow at multipole order 1: a bead has no stresslet of its own at this order, the body''s stresslet is ' // &
+          'the first moment of its bead forces alone (a single bead''s is 0; docs/theory.md T19); order 2 holds it')
+        ! What Brownian motion does (brownian_numbers.f90), with the flow [eta] for the volume of
+        ! the lattice cells, N d^3.
+        if (job_result%diagnostics%finite .and. all(config%hydrodynamics%motions)) then
+          job_result%brownian = brownian_numbers_of(mobility%mobility_at_centre, mobility%centre_of_mobility)
+          if (job_result%brownian%available .and. job_result%flow_response%available) then
+            job_result%brownian%with_flow = .true.
+            job_result%brownian%volume = real(model%n_beads(), dp)
+            call intrinsic_viscosities(job_result%flow_response%velocity_per_strain(4:6, :), &
+                                       job_result%flow_response%stresslet_per_strain, mobility%mobility(4:6, 4:6), &
+                                       job_result%brownian%volume, job_result%brownian%intrinsic_viscosity_high_frequency, &
+                                       job_result%brownian%intrinsic_viscosity_zero_shear)
+          end if
+        end if
         ! The pfft far field's error, measured on a sample of rows, added to the error bar (theory.md T16).
         if (job_result%operator_sample%rows > 0 .and. job_result%diagnostics%finite .and. &
             all(config%hydrodynamics%motions)) then

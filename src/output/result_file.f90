@@ -23,6 +23,7 @@ module beadmob_result_file
   use beadmob_operator_error, only: operator_sample_t
   use beadmob_continuum_fit, only: continuum_result_t
   use beadmob_linear_flow, only: n_strain_modes, strain_mode
+  use beadmob_brownian_numbers, only: brownian_numbers_t
   use beadmob_hdf5_support, only: h5_create_parallel, h5_close_file, h5_create_group, h5_close_group, &
                                   write_attribute, write_text_dataset, write_replicated_dataset, &
                                   write_distributed_columns
@@ -63,6 +64,7 @@ contains
       call write_hydrodynamics(ctx, file_id, config, model%n_beads(), mobility, job_result, err)
     if (present(job_result)) then
       if (job_result%flow) call write_flow(ctx, file_id, config, job_result, err)
+      if (job_result%brownian%available) call write_diffusion(ctx, file_id, job_result%brownian, err)
     end if
     if (present(continuum)) call write_continuum(ctx, file_id, continuum, err)
     call h5_close_file(file_id, err)
@@ -280,6 +282,34 @@ contains
     end if
     call h5_close_group(group, err)
   end subroutine write_hydrodynamics
+
+  !> The group /diffusion (docs/output.md; brownian_numbers.f90): what Brownian motion does.
+  subroutine write_diffusion(ctx, file_id, numbers, err)
+    type(run_context_t), intent(in) :: ctx
+    integer(hid_t), intent(in) :: file_id
+    type(brownian_numbers_t), intent(in) :: numbers
+    type(error_t), intent(inout) :: err
+    integer(hid_t) :: group
+    call h5_create_group(file_id, 'diffusion', group, err)
+    call write_attribute(group, 'units', 'eta = kT = 1, lengths in d (beadmob-post diffusion gives physical units)', err)
+    call write_attribute(group, 'method', 'the order-L mobility about the centre of mobility (= centre of diffusion, ' // &
+                         'Harvey & Garcia de la Torre 1980); relaxation times of Favro 1960; with /flow, [eta] of ' // &
+                         'docs/postprocessing.md for the volume of the lattice cells (N d^3)', err)
+    call write_replicated_dataset(ctx, group, 'centre_of_diffusion', numbers%centre_of_diffusion, err)
+    call write_attribute(group, 'translational_diffusion', numbers%translational_diffusion, err)
+    call write_attribute(group, 'stokes_radius', numbers%stokes_radius, err)
+    call write_replicated_dataset(ctx, group, 'rotational_diffusion', numbers%rotational_diffusion, err)
+    ! C-order readers see the axes as rows
+    call write_replicated_dataset(ctx, group, 'rotational_axes', numbers%rotational_axes, err)
+    call write_replicated_dataset(ctx, group, 'relaxation_times', numbers%relaxation_times, err)
+    call write_attribute(group, 'harmonic_mean_relaxation_time', numbers%harmonic_mean_relaxation_time, err)
+    if (numbers%with_flow) then
+      call write_attribute(group, 'volume', numbers%volume, err)
+      call write_attribute(group, 'intrinsic_viscosity_high_frequency', numbers%intrinsic_viscosity_high_frequency, err)
+      call write_attribute(group, 'intrinsic_viscosity_zero_shear', numbers%intrinsic_viscosity_zero_shear, err)
+    end if
+    call h5_close_group(group, err)
+  end subroutine write_diffusion
 
   !> The group /flow (docs/output.md; theory.md T19): the body in an ambient linear flow.
   subroutine write_flow(ctx, file_id, config, job_result, err)

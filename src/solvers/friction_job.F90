@@ -27,6 +27,7 @@ module beadmob_friction_job
   use beadmob_friction_diagnostics, only: friction_diagnostics_t
   use beadmob_error_estimate, only: error_estimate_t
   use beadmob_flow_response, only: flow_response_t
+  use beadmob_brownian_numbers, only: brownian_numbers_t
   use beadmob_operator_error_bar, only: operator_error_t
   use beadmob_accuracy_choice, only: accuracy_choice_t
   use beadmob_friction_settings, only: friction_settings_t
@@ -57,6 +58,8 @@ module beadmob_friction_job
     type(strain_statistics_t) :: strain_solves, companion_strain_solves
     !> The free body's response and its bar (set by the driver, flow_response.f90)
     type(flow_response_t) :: flow_response
+    !> Diffusion, relaxation times and (with the flow) [eta] (set by the driver, brownian_numbers.f90)
+    type(brownian_numbers_t) :: brownian
     !> The settings an accuracy target chose (set by the driver; target 0 = none asked for)
     type(accuracy_choice_t) :: accuracy
     integer :: unknowns_per_bead = 0

@@ -463,3 +463,30 @@ def test_real_spheroid_run(beadmob_output_dir, capsys):
         data["bretherton"]["orbit_constant_relative_change"] < 1e-8
     period = [item["period"] for name, item in data["axes"].items() if "symmetry" in name][0]
     assert period == pytest.approx(2 * np.pi * 2.5, rel=1e-2)
+
+
+@pytest.mark.parametrize("name", ["flow_spheroid.h5", "flow_body.h5"])
+def test_fortran_diffusion_group(beadmob_output_dir, name):
+    """beadmob's own /diffusion group (src/hydro/brownian_numbers.f90) against this module on the
+    same file: two implementations of the same formulas (this module's are checked against exact
+    values above), so they agree to rounding; [eta] with the volume N d^3 both use."""
+    path = beadmob_output_dir / "flow" / name
+    if not path.exists():
+        pytest.skip(f"{path} missing (the Fortran's &hydrodynamics flow runs)")
+    with h5py.File(path) as f:
+        g = f["diffusion"]
+        fortran = {key: g.attrs[key] for key in g.attrs if not isinstance(g.attrs[key], (bytes, str))}
+        centre, rotational = g["centre_of_diffusion"][()], g["rotational_diffusion"][()]
+        times = g["relaxation_times"][()]
+        n = int(f["geometry"].attrs["n_beads"])
+    d = diffusion_analysis(load_result(path), volume=float(n))
+    assert centre == pytest.approx(d.centre_of_diffusion, abs=1e-9)
+    assert fortran["translational_diffusion"] == pytest.approx(d.translational, rel=1e-10)
+    assert fortran["stokes_radius"] == pytest.approx(d.stokes_radius, rel=1e-10)
+    assert rotational == pytest.approx(d.rotational, rel=1e-9)
+    assert times == pytest.approx(d.relaxation_times, rel=1e-9)
+    assert fortran["harmonic_mean_relaxation_time"] == pytest.approx(d.harmonic_mean_time, rel=1e-10)
+    eta = d.flow.intrinsic_viscosity
+    assert fortran["volume"] == n
+    assert fortran["intrinsic_viscosity_high_frequency"] == pytest.approx(eta.high_frequency, rel=1e-10)
+    assert fortran["intrinsic_viscosity_zero_shear"] == pytest.approx(eta.zero_shear, rel=1e-8)
