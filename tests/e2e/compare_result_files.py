@@ -29,6 +29,9 @@ SOLVER_DIAGNOSTICS = {"solve_true_relative_residual", "solve_iterations", "symme
                       "companion_true_relative_residual", "solve_natural_relative_residual",
                       "companion_natural_relative_residual", "condition_estimate", "companion_condition_estimate",
                       "solver_error_bound", "companion_solver_error_bound", "preconditioned_smallest_eigenvalue"}
+#: The rotational diffusion's axes: eigenvectors, defined up to sign (and for equal eigenvalues up
+#: to a turn), compared through the eigenvalues (DIFFUSION_NUMBERS) and the mobility they come from.
+SOLVER_DIAGNOSTICS |= {"rotational_axes"}
 #: Eigenvalues, condition number and asymmetry of the frictions: functions of the frictions
 #: compared below (their 0/1 flags are compared exactly).
 SOLVER_DIAGNOSTICS |= {f"{prefix}_{name}" for prefix in ("friction", "multipole_friction")
@@ -102,12 +105,43 @@ def inverse_tolerance(bound, friction):
     return 1.1 * 36 * bound * np.linalg.cond(friction)
 
 
+#: /diffusion (src/hydro/brownian_numbers.f90): functions of the order-L mobility about the centre
+#: of mobility M, whose entries move by at most e = rel_l max|M| (ORDER_L_INVERSES). D_t = tr(M_tt)/3
+#: moves by e, the eigenvalues of M_rr by |dM_rr|_2 <= 3 e (Weyl), a relaxation rate (6 D -+ 2 Delta,
+#: 3 (D + D_i): Lipschitz constant <= 8 in the eigenvalues) by 24 e, and 1/x by dx / x^2.
+DIFFUSION_NUMBERS = {"translational_diffusion", "stokes_radius", "rotational_diffusion", "relaxation_times",
+                     "harmonic_mean_relaxation_time", "centre_of_diffusion"}
+
+
+def diffusion_tolerance(name, x, first, rel_l):
+    """(allowed max |x - y|, derivation) for a /diffusion number (DIFFUSION_NUMBERS)."""
+    e = 1.1 * rel_l * np.nanmax(np.abs(first["hydrodynamics/mobility_at_centre_of_mobility"]))
+    d_t = float(first["@diffusion/translational_diffusion"])
+    if name == "translational_diffusion":
+        allowed = e
+    elif name == "stokes_radius":
+        allowed = float(np.max(x)) * e / (d_t - e)
+    elif name == "rotational_diffusion":
+        allowed = 3 * e
+    elif name == "centre_of_diffusion":
+        allowed = rel_l * max(float(np.nanmax(np.abs(first["hydrodynamics/centre_of_mobility"]))),
+                              float(first.get("@shape/reference_length", 1.0)))
+    else:   # times: 1 / rate, the rate moving by 24 e (the harmonic mean's by 6 e)
+        rates = 1.0 / np.asarray(x, float)
+        change = 24 * e if name == "relaxation_times" else 6 * e
+        allowed = float(np.max(change / (rates * (rates - change))))
+    return allowed, f"{allowed:.1e} (from the mobility's {rel_l:.1e} relative)"
+
+
 def tolerance(key, x, first, bounds):
     """(allowed max |x - y|, how it was derived) for a solver result, None for exact items."""
     name = key.rsplit("/", 1)[-1]
+    order_l, companion = bounds
+    if key.lstrip("@").startswith("diffusion") and name in DIFFUSION_NUMBERS:
+        rel = inverse_tolerance(order_l, first.get("hydrodynamics/multipole_friction"))
+        return None if rel is None else diffusion_tolerance(name, x, first, rel)
     if not key.lstrip("@").startswith("hydrodynamics"):
         return None
-    order_l, companion = bounds
     hydro = lambda item: first.get(f"hydrodynamics/{item}")
     if name in ORDER_L_FRICTIONS and order_l is not None:
         return order_l * entry_scale(hydro("multipole_friction")), f"{order_l:.1e} sqrt(zeta_mm zeta_nn)"
