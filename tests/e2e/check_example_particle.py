@@ -8,7 +8,8 @@ shapes/make_particle_mesh.py).
    (the divergence theorem; at d = 0.05 mm the lattice's count scatters by about a surface layer's
    fraction, well under that), and writes particle.h5 where it runs.
 2. `beadmob --estimate shapes/particle_continuum.nml` prints a ladder of 7 levels, each with at
-   least 100 beads, within the 600 s budget, and writes nothing."""
+   least 100 beads, within the 600 s budget, and writes nothing.
+3. `beadmob --estimate shapes/particle_flow.nml` (the particle in a flow) likewise."""
 import re
 import subprocess
 import sys
@@ -54,6 +55,13 @@ def main(beadmob, mpiexec, ranks, workdir):
     check(done.returncode == 0 and len(counts) == 7 and min(counts) >= 100
           and not (workdir / "particle_continuum.h5").exists(),
           f"particle_continuum.nml --estimate: a ladder of 7 levels of {counts} beads, nothing written")
+    (workdir / "particle_flow.h5").unlink(missing_ok=True)
+    done = subprocess.run([mpiexec, "-n", str(ranks), beadmob, "--estimate", str(SHAPES / "particle_flow.nml")],
+                          cwd=workdir, capture_output=True, text=True)
+    lines = done.stdout.splitlines()
+    ladder = [i for i, line in enumerate(lines) if "continuum ladder of 7 levels" in line]
+    check(done.returncode == 0 and bool(ladder) and not (workdir / "particle_flow.h5").exists(),
+          "particle_flow.nml --estimate: a ladder of 7 levels, nothing written")
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")
     print("check_example_particle: all checks passed")
