@@ -72,6 +72,9 @@ import numpy as np
 
 from beadmob_post.mobility import MobilityError, checked_mobility, in_frame, shift_reference_point, skew
 from beadmob_post.results import BeadResult, Flow, ResultFileError
+from beadmob_post.ellipsoid import strain_modes
+
+_S2 = np.sqrt(2.0)
 
 #: Boltzmann constant (J/K), exact in the SI since 2019.
 BOLTZMANN = 1.380649e-23
@@ -82,18 +85,8 @@ BEAD_VOLUME_SOURCE = "N d^3, a lattice cell per bead"
 #: Entries of C (rotation per unit strain amplitude, dimensionless) below this are rounding noise.
 NEGLIGIBLE_ROTATION = 1e-12
 
-_S2, _S6 = np.sqrt(2.0), np.sqrt(6.0)
-
-
-def _modes() -> np.ndarray:
-    x, y, z = np.eye(3)
-    o = np.outer
-    return np.array([(o(x, y) + o(y, x)) / _S2, (o(x, z) + o(z, x)) / _S2, (o(y, z) + o(z, y)) / _S2,
-                     (o(x, x) - o(y, y)) / _S2, (2 * o(z, z) - o(x, x) - o(y, y)) / _S6])
-
-
 #: The five orthonormal symmetric traceless strain modes E_1..E_5 of /flow (shape (5, 3, 3)).
-STRAIN_MODES = _modes()
+STRAIN_MODES = strain_modes()   # one definition, beadmob_post/ellipsoid.py
 STRAIN_MODES.setflags(write=False)
 
 

@@ -110,9 +110,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import comb
 
+from beadmob_post.ellipsoid import strain_modes
 from beadmob_post.two_spheres import corotation_torque
 
-_SQRT2, _SQRT6 = np.sqrt(2.0), np.sqrt(6.0)
+_SQRT2 = np.sqrt(2.0)
 
 #: Names of the 22 scalar resistance functions (11 and 12 of each), JO / J92 normalisation.
 SCALAR_NAMES = ("XA", "YA", "YB", "XC", "YC", "XG", "YG", "YH", "XM", "YM", "ZM")
@@ -124,17 +125,6 @@ _SERIES_FORM = {
 }
 
 
-def strain_modes() -> np.ndarray:
-    """The five orthonormal symmetric traceless modes E_1..E_5, shape (5, 3, 3)."""
-    x, y, z = np.eye(3)
-    o = np.outer
-    return np.array([
-        (o(x, y) + o(y, x)) / _SQRT2,
-        (o(x, z) + o(z, x)) / _SQRT2,
-        (o(y, z) + o(z, y)) / _SQRT2,
-        (o(x, x) - o(y, y)) / _SQRT2,
-        (2.0 * o(z, z) - o(x, x) - o(y, y)) / _SQRT6,
-    ])
 
 
 #: Largest number of series terms (beyond it the coefficients overflow double precision).

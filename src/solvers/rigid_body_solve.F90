@@ -675,17 +675,7 @@ contains
     type(motion_solver_t), intent(in) :: solver
     integer, intent(in) :: unknowns(:)
     real(dp), intent(out) :: kept(:, :)
-    PetscScalar, pointer :: values(:)
-    PetscErrorCode :: ierr
-    integer(i8) :: i
-    integer :: k
-    do k = 1, n_strain_modes
-      PetscCallA(VecGetArrayReadF90(solver%strain_solution(k), values, ierr))
-      do i = 1, solver%n_local
-        kept(size(unknowns) * (i - 1) + 1:size(unknowns) * i, k) = values(solver%nb * (i - 1) + unknowns)
-      end do
-      PetscCallA(VecRestoreArrayReadF90(solver%strain_solution(k), values, ierr))
-    end do
+    call keep_part(solver, solver%strain_solution, unknowns, kept)
   end subroutine keep_strain_solution_part
 
   !> The motions of a checkpoint with the solver's key into its solutions (solver%loaded).
@@ -785,18 +775,27 @@ contains
     type(motion_solver_t), intent(in) :: solver
     integer, intent(in) :: unknowns(:)
     real(dp), intent(out) :: kept(:, :)
+    call keep_part(solver, solver%solution, unknowns, kept)
+  end subroutine keep_solution_part
+
+  !> kept(:, m): the entries `unknowns` of every bead of this rank in vectors(m).
+  subroutine keep_part(solver, vectors, unknowns, kept)
+    type(motion_solver_t), intent(in) :: solver
+    Vec, intent(in) :: vectors(:)
+    integer, intent(in) :: unknowns(:)
+    real(dp), intent(out) :: kept(:, :)
     PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
     integer(i8) :: i
-    integer :: motion
-    do motion = 1, 6
-      PetscCallA(VecGetArrayReadF90(solver%solution(motion), values, ierr))
+    integer :: m
+    do m = 1, size(vectors)
+      PetscCallA(VecGetArrayReadF90(vectors(m), values, ierr))
       do i = 1, solver%n_local
-        kept(size(unknowns) * (i - 1) + 1:size(unknowns) * i, motion) = values(solver%nb * (i - 1) + unknowns)
+        kept(size(unknowns) * (i - 1) + 1:size(unknowns) * i, m) = values(solver%nb * (i - 1) + unknowns)
       end do
-      PetscCallA(VecRestoreArrayReadF90(solver%solution(motion), values, ierr))
+      PetscCallA(VecRestoreArrayReadF90(vectors(m), values, ierr))
     end do
-  end subroutine keep_solution_part
+  end subroutine keep_part
 
   !> forces (36 x n_local): column i holds, for motion m = 1..6, the force and torque (about its
   !> centre) that bead first_bead+i-1 exerts on the fluid, rows 6(m-1)+1..6m.
