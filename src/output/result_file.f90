@@ -343,6 +343,7 @@ contains
     call write_attribute(group, 'strain_condition_estimate', strains%condition_estimate, err)
     call write_attribute(group, 'strain_solved_together', strains%solved_together, err)
     call write_attribute(group, 'strain_deflation_vectors', strains%deflation_vectors, err)
+    call write_attribute(group, 'strain_resumed', strains%resumed, err)
     call write_attribute(group, 'plain_symmetry_error', strains%plain_symmetry_error, err)
     call write_attribute(group, 'all_converged', merge(1, 0, all(strains%converged_reason > 0)), err)
     ! C-order readers see (5, 3, 3): mode k is strain_modes[k] (symmetric, so no transpose needed).

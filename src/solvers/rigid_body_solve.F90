@@ -56,6 +56,8 @@ module beadmob_rigid_body_solve
     integer :: solved_together = 0
     !> Vectors of the coarse space the strain solves were deflated by (0: none)
     integer :: deflation_vectors = 0
+    !> 1: the strain's solution was loaded from the checkpoint instead of solved
+    integer :: resumed(n_strain_modes) = 0
     !> ||G - G^T|| / ||G|| of the plain estimate of the grand resistance G_mn = c_m . q_n
     real(dp) :: plain_symmetry_error = 0.0_dp
   end type strain_statistics_t
@@ -119,6 +121,9 @@ module beadmob_rigid_body_solve
     !> pose_strains was called: solve_motions solves the strains too, recorded here
     logical :: strains_posed = .false.
     type(strain_statistics_t) :: strain_stats
+    !> Strains loaded from the checkpoint, solved by this call, and their saved records
+    logical :: strain_loaded(n_strain_modes) = .false., strain_solved(n_strain_modes) = .false.
+    type(saved_solve_t) :: strain_saved(n_strain_modes)
     integer :: nb = 0                              ! unknowns per bead
     integer(i8) :: first_bead = 1, n_local = 0, n_total = 0
     !> Rank 0 prints a progress line per solve, beginning with `label` (e.g. 'companion solve')
@@ -298,6 +303,7 @@ contains
     PCType :: pc_type
     real(dp) :: arm(3), plain(6, 6), correction(6, 6), residual_square, rhs_square
     Vec, allocatable :: systems(:), unknowns(:)   ! a batch of motions and strains
+    integer, allocatable :: strains_to_solve(:)
     PetscBool :: nonzero_start
     integer(i8) :: i, bead
     integer :: motion, other, nb
@@ -387,17 +393,20 @@ contains
     else if (solver%together .and. solver%strains_posed) then
       ! The motions and the strains in one batch (theory.md T19), deflated by the right-hand sides
       ! of all eleven problems: the strains' slow part is the body's large-scale response.
-      systems = [rhs(to_solve), solver%strain_rhs]
-      unknowns = [solution(to_solve), solver%strain_solution]
-      call make_deflation_space(solver%op, solver%pc, [rhs, solver%strain_rhs], &
-                                [(solver%deflate, k=1, 6 + n_strain_modes)], coarse_space)
-      stats%deflation_vectors = coarse_space%size
-      solver%strain_stats%deflation_vectors = coarse_space%size
+      strains_to_solve = pack([(k, k=1, n_strain_modes)], .not. solver%strain_loaded)
+      systems = [rhs(to_solve), solver%strain_rhs(strains_to_solve)]
+      unknowns = [solution(to_solve), solver%strain_solution(strains_to_solve)]
       solver%strain_stats%solved_together = 1
-      call solve_lockstep(solver%op, solver%pc, systems, unknowns, allocated(solver%initial_guess) .or. &
-                          allocated(solver%strain_initial_guess), solver%limits, finished_with_strains, stopped, &
-                          coarse_space, converging_with_strains)
-      call destroy_deflation_space(coarse_space)
+      if (size(systems) > 0) then   ! else everything was resumed
+        call make_deflation_space(solver%op, solver%pc, [rhs, solver%strain_rhs], &
+                                  [(solver%deflate, k=1, 6 + n_strain_modes)], coarse_space)
+        stats%deflation_vectors = coarse_space%size
+        solver%strain_stats%deflation_vectors = coarse_space%size
+        call solve_lockstep(solver%op, solver%pc, systems, unknowns, allocated(solver%initial_guess) .or. &
+                            allocated(solver%strain_initial_guess), solver%limits, finished_with_strains, stopped, &
+                            coarse_space, converging_with_strains)
+        call destroy_deflation_space(coarse_space)
+      end if
     else
       do k = 1, size(to_solve)
         started = MPI_Wtime()
@@ -412,11 +421,12 @@ contains
         nonzero_start = merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess))
         PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, nonzero_start, ierr))
         do k = 1, n_strain_modes
+          if (solver%strain_loaded(k)) cycle
           PetscCallA(KSPSolve(solver%ksp, solver%strain_rhs(k), solver%strain_solution(k), ierr))
           PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
           PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
           PetscCallA(KSPComputeExtremeSingularValues(solver%ksp, largest_value, smallest_value, ierr))
-          call record_strain_solve(solver, k, int(iterations), int(reason), largest_value, smallest_value)
+          call finish_strain(k, int(iterations), int(reason), largest_value, smallest_value)
         end do
       end if
     end if
@@ -469,9 +479,21 @@ contains
       if (j <= size(to_solve)) then
         call finish_solve(to_solve(j), its, why, largest, smallest, stop)
       else
-        call record_strain_solve(solver, j - size(to_solve), its, why, largest, smallest)
+        call finish_strain(strains_to_solve(j - size(to_solve)), its, why, largest, smallest)
       end if
     end subroutine finished_with_strains
+
+    !> Strain k solved: recorded and, with a checkpoint, saved at once with everything before it
+    !> (its record's true residual is the one strain_grand_resistance finds: computed here).
+    subroutine finish_strain(k, its, why, largest, smallest)
+      integer, intent(in) :: k, its, why
+      real(dp), intent(in) :: largest, smallest
+      call record_strain_solve(solver, k, its, why, largest, smallest)
+      solver%strain_solved(k) = .true.
+      if (.not. solver%saving) return
+      solver%strain_saved(k) = saved_solve_t(its, why, strain_true_residual(solver, k))
+      call save_checkpoint(solver, 0, stats%source)
+    end subroutine finish_strain
 
     subroutine converging_with_strains(js)
       integer, intent(in) :: js(:)
@@ -592,6 +614,8 @@ contains
     end if
     solver%strains_posed = .true.
     solver%strain_stats = strain_statistics_t()
+    solver%strain_loaded = .false.
+    solver%strain_solved = .false.
     do k = 1, n_strain_modes
       PetscCallA(VecGetArrayF90(solver%strain_rhs(k), values, ierr))
       do i = 1, solver%n_local
@@ -652,11 +676,25 @@ contains
         grand(n, m) = grand(m, n)
       end do
     end do
+    solver%strain_stats%resumed = merge(1, 0, solver%strain_loaded)
     stats = solver%strain_stats
     call progress_line(solver%progress, solver%label // ' strains: ' // str(sum(stats%iterations)) // &
                        ' iterations in all' // trim(merge(', with the motions', '                  ', &
                        stats%solved_together == 1)))
   end subroutine strain_grand_resistance
+
+  !> Collective. |c_k - A q_k| / |c_k| of strain k (its residual vector left in strain_residual(k)).
+  real(dp) function strain_true_residual(solver, k) result(relative)
+    type(motion_solver_t), intent(inout) :: solver
+    integer, intent(in) :: k
+    PetscErrorCode :: ierr
+    PetscReal :: rhs_norm, residual_norm
+    PetscCallA(MatMult(solver%matrix, solver%strain_solution(k), solver%strain_residual(k), ierr))
+    PetscCallA(VecAYPX(solver%strain_residual(k), -1.0_dp, solver%strain_rhs(k), ierr))
+    PetscCallA(VecNorm(solver%strain_residual(k), NORM_2, residual_norm, ierr))
+    PetscCallA(VecNorm(solver%strain_rhs(k), NORM_2, rhs_norm, ierr))
+    relative = residual_norm / rhs_norm
+  end function strain_true_residual
 
   !> A strain solve has stopped (its iterations, KSPConvergedReason, B A's extreme eigenvalues).
   subroutine record_strain_solve(solver, k, its, why, largest, smallest)
@@ -706,9 +744,37 @@ contains
         call agree_on_error(solver%ctx, problem)
         if (problem%failed) exit
       end do
+      ! The strains (theory.md T19), each kept only if it gives the true residual it was saved with.
+      do m = 1, n_strain_modes
+        if (.not. solver%strains_posed .or. problem%failed) exit
+        PetscCallA(VecGetArrayF90(solver%strain_solution(m), values, ierr))
+        block => columns(solver, values, no_columns)
+        call read_checkpoint_motion(file_id, strain_names(m), block, solver%first_bead, solver%n_total, found, &
+                                    solver%strain_saved(m), problem)
+        PetscCallA(VecRestoreArrayF90(solver%strain_solution(m), values, ierr))
+        call agree_on_error(solver%ctx, problem)
+        if (problem%failed) exit
+        if (found) solver%strain_loaded(m) = same_residual(strain_true_residual(solver, m), &
+                                                           solver%strain_saved(m)%true_relative_residual)
+        if (solver%strain_loaded(m)) then
+          solver%strain_stats%iterations(m) = solver%strain_saved(m)%iterations
+          solver%strain_stats%converged_reason(m) = solver%strain_saved(m)%converged_reason
+        end if
+        if (found .and. .not. solver%strain_loaded(m)) then
+          ! Not this run's system: solved again, from zero or the companion's start.
+          if (allocated(solver%strain_initial_guess)) then
+            PetscCallA(VecGetArrayF90(solver%strain_solution(m), values, ierr))
+            values = solver%strain_initial_guess(:, m)
+            PetscCallA(VecRestoreArrayF90(solver%strain_solution(m), values, ierr))
+          else
+            PetscCallA(VecZeroEntries(solver%strain_solution(m), ierr))
+          end if
+        end if
+      end do
       call close_checkpoint(file_id, problem)
       call agree_on_error(solver%ctx, problem)
       if (problem%failed) solver%loaded = .false.
+      if (problem%failed) solver%strain_loaded = .false.
     end if
     if (solver%ctx%rank == 0) then
       if (problem%failed) then
@@ -719,6 +785,8 @@ contains
           '(its key differs: other input, beads or solver settings); ignored, this run overwrites it'
       end if
     end if
+    if (count(solver%strain_loaded) > 0) call progress_line(solver%progress, 'checkpoint: ' // &
+                                                            str(count(solver%strain_loaded)) // ' strains to resume')
     if (count(solver%loaded) > 0) call progress_line(solver%progress, 'checkpoint: ' // str(count(solver%loaded)) // &
                                                      ' motions to resume')
   end subroutine load_checkpoint
@@ -745,6 +813,14 @@ contains
         call write_checkpoint_motion(writer, motion_names(k), block, solver%first_bead, solver%n_total, solver%saved(k), &
                                      problem)
         PetscCallA(VecRestoreArrayReadF90(solver%solution(k), values, ierr))
+      end do
+      do k = 1, n_strain_modes
+        if (.not. (solver%strain_loaded(k) .or. solver%strain_solved(k))) cycle
+        PetscCallA(VecGetArrayReadF90(solver%strain_solution(k), values, ierr))
+        block => columns(solver, values, no_columns)
+        call write_checkpoint_motion(writer, strain_names(k), block, solver%first_bead, solver%n_total, &
+                                     solver%strain_saved(k), problem)
+        PetscCallA(VecRestoreArrayReadF90(solver%strain_solution(k), values, ierr))
       end do
       call commit_checkpoint(solver%ctx, writer, problem)
     end if
