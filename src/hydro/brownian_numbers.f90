@@ -14,7 +14,7 @@
 !>     Einstein's 5/2 and Simha's spheroid values are its tests)
 module beadmob_brownian_numbers
   use beadmob_kinds, only: dp
-  use beadmob_lapack, only: dsyev
+  use beadmob_lapack, only: dsyev, dpotrf, dpotrs
   use beadmob_linear_flow, only: n_strain_modes, strain_mode
   implicit none
   private
@@ -69,7 +69,7 @@ contains
     real(dp), intent(out) :: high_frequency, zero_shear
     real(dp) :: generators(n_strain_modes, n_strain_modes, 3), operator(n_strain_modes, n_strain_modes)
     real(dp) :: b(n_strain_modes), solved(n_strain_modes), d(3, 3), spin(3, 3)
-    integer :: i, j, l, m
+    integer :: i, j, l, m, info
     high_frequency = 0.0_dp
     do m = 1, n_strain_modes
       high_frequency = high_frequency + stresslet_per_strain(m, m)
@@ -97,27 +97,10 @@ contains
         operator = operator - d(i, j) * matmul(generators(:, :, j), generators(:, :, i))
       end do
     end do
-    solved = solve_spd(operator, b)
+    ! -K is symmetric positive definite (its eigenvalues are the five relaxation rates).
+    solved = b
+    call dpotrf('L', n_strain_modes, operator, n_strain_modes, info)
+    call dpotrs('L', n_strain_modes, 1, operator, n_strain_modes, solved, n_strain_modes, info)
     zero_shear = high_frequency + dot_product(b, solved) / (10.0_dp * volume)
-  contains
-    !> a x = y for the symmetric positive definite 5 x 5 a, by Gaussian elimination without pivoting
-    !> (stable for SPD matrices).
-    pure function solve_spd(a, y) result(x)
-      real(dp), intent(in) :: a(:, :), y(:)
-      real(dp) :: x(size(y)), m(size(y), size(y))
-      integer :: k, r, n
-      n = size(y)
-      m = a
-      x = y
-      do k = 1, n
-        do r = k + 1, n
-          x(r) = x(r) - m(r, k) / m(k, k) * x(k)
-          m(r, k:) = m(r, k:) - m(r, k) / m(k, k) * m(k, k:)
-        end do
-      end do
-      do k = n, 1, -1
-        x(k) = (x(k) - dot_product(m(k, k + 1:), x(k + 1:))) / m(k, k)
-      end do
-    end function solve_spd
   end subroutine intrinsic_viscosities
 end module beadmob_brownian_numbers

@@ -378,6 +378,18 @@ contains
         PetscCallA(VecZeroEntries(solution(to_solve(k)), ierr))
       end if
     end do
+    ! The strains not resumed start as the motions do (a failed or foreign load leaves nothing).
+    do k = 1, n_strain_modes
+      if (.not. solver%strains_posed) exit
+      if (solver%strain_loaded(k)) cycle
+      if (allocated(solver%strain_initial_guess)) then
+        PetscCallA(VecGetArrayF90(solver%strain_solution(k), values, ierr))
+        values = solver%strain_initial_guess(:, k)
+        PetscCallA(VecRestoreArrayF90(solver%strain_solution(k), values, ierr))
+      else
+        PetscCallA(VecZeroEntries(solver%strain_solution(k), ierr))
+      end if
+    end do
     stopped = .false.
     started = MPI_Wtime()
     if (size(to_solve) > 0 .and. solver%together .and. .not. solver%strains_posed) then
@@ -592,9 +604,9 @@ contains
   !> Collective, before solve_motions (all six motions computed). The five strain problems of the
   !> body held still in the ambient strains E_k about reference_point (theory.md T19): c_k =
   !> translation of each bead by E_k . (R_i - R_0) plus the bead's own strain (strain_projection of
-  !> linear_flow.f90), started from solver%strain_initial_guess when allocated, else from zero.
-  !> solve_motions then solves them with the motions (in one lockstep batch when the motions run
-  !> together) and strain_grand_resistance reads the result.
+  !> linear_flow.f90). solve_motions then starts those not resumed from solver%strain_initial_guess
+  !> when allocated, else from zero, solves them with the motions (in one lockstep batch when the
+  !> motions run together), and strain_grand_resistance reads the result.
   subroutine pose_strains(solver, projection, own_strain, centres, reference_point)
     type(motion_solver_t), intent(inout) :: solver
     real(dp), intent(in) :: projection(:, :), own_strain(:, :), centres(:, :), reference_point(3)
@@ -623,13 +635,6 @@ contains
         values(nb * (i - 1) + 1:nb * i) = matmul(projection(:, 1:3), strain_velocity(k, arm)) + own_strain(:, k)
       end do
       PetscCallA(VecRestoreArrayF90(solver%strain_rhs(k), values, ierr))
-      if (allocated(solver%strain_initial_guess)) then
-        PetscCallA(VecGetArrayF90(solver%strain_solution(k), values, ierr))
-        values = solver%strain_initial_guess(:, k)
-        PetscCallA(VecRestoreArrayF90(solver%strain_solution(k), values, ierr))
-      else
-        PetscCallA(VecZeroEntries(solver%strain_solution(k), ierr))
-      end if
     end do
   end subroutine pose_strains
 
@@ -759,16 +764,6 @@ contains
         if (solver%strain_loaded(m)) then
           solver%strain_stats%iterations(m) = solver%strain_saved(m)%iterations
           solver%strain_stats%converged_reason(m) = solver%strain_saved(m)%converged_reason
-        end if
-        if (found .and. .not. solver%strain_loaded(m)) then
-          ! Not this run's system: solved again, from zero or the companion's start.
-          if (allocated(solver%strain_initial_guess)) then
-            PetscCallA(VecGetArrayF90(solver%strain_solution(m), values, ierr))
-            values = solver%strain_initial_guess(:, m)
-            PetscCallA(VecRestoreArrayF90(solver%strain_solution(m), values, ierr))
-          else
-            PetscCallA(VecZeroEntries(solver%strain_solution(m), ierr))
-          end if
         end if
       end do
       call close_checkpoint(file_id, problem)
