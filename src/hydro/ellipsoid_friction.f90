@@ -16,6 +16,7 @@
 !>             Mura, Micromechanics of Defects in Solids (1987), section 11): the free ellipsoid's.
 module beadmob_ellipsoid_friction
   use beadmob_kinds, only: dp
+  use beadmob_vector_algebra, only: cross
   use beadmob_linear_flow, only: n_strain_modes, strain_rotation
   implicit none
   private
@@ -113,18 +114,13 @@ contains
     ! pseudovector: a reflection would turn the sign of the rotation-strain coupling; the
     ! ellipsoid is the same body with any sign of its axes, so the third is flipped if need be).
     q = axes
-    if (determinant(q) < 0.0_dp) q(:, 3) = -q(:, 3)
+    if (dot_product(q(:, 1), cross(q(:, 2), q(:, 3))) < 0.0_dp) q(:, 3) = -q(:, 3)
     turn = 0.0_dp
     turn(1:3, 1:3) = q
     turn(4:6, 4:6) = q
     turn(7:, 7:) = strain_rotation(q)
     grand = matmul(turn, matmul(grand, transpose(turn)))
   contains
-    pure real(dp) function determinant(a)
-      real(dp), intent(in) :: a(3, 3)
-      determinant = dot_product(a(:, 1), [a(2, 2) * a(3, 3) - a(3, 2) * a(2, 3), a(3, 2) * a(1, 3) - a(1, 2) * a(3, 3), &
-                                          a(1, 2) * a(2, 3) - a(2, 2) * a(1, 3)])
-    end function determinant
     pure function inverse2(a) result(inverse)
       real(dp), intent(in) :: a(2, 2)
       real(dp) :: inverse(2, 2)
