@@ -184,9 +184,6 @@ contains
         ! The free body in a linear flow and its bar from the companion (theory.md T19).
         if (job_result%flow) job_result%flow_response = flow_response_of(job_result%grand_resistance, &
           job_result%companion_grand_resistance, job_result%companion_order)
-        if (job_result%flow .and. config%hydrodynamics%multipole_order == 1 .and. ctx%rank == 0) call warn( &
-          'flow at multipole order 1: a bead has no stresslet of its own at this order, the body''s stresslet is ' // &
-          'the first moment of its bead forces alone (a single bead''s is 0; docs/theory.md T19); order 2 holds it')
         ! What Brownian motion does (brownian_numbers.f90), with the flow [eta] for the volume of
         ! the lattice cells, N d^3.
         if (job_result%diagnostics%finite .and. all(config%hydrodynamics%motions)) then

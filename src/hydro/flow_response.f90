@@ -22,6 +22,9 @@ module beadmob_flow_response
     real(dp) :: stresslet_per_strain(n_strain_modes, n_strain_modes) = 0.0_dp
     !> The body held still (v = 0): s = G_EE e
     real(dp) :: held_stresslet_per_strain(n_strain_modes, n_strain_modes) = 0.0_dp
+    !> |s - s^T| / |s| of the Schur complement before it is made symmetric: rounding at order L >= 2;
+    !> at order 1 what the beads' own stresslets add by rows only (bead_stresslet.f90, theory.md T19)
+    real(dp) :: stresslet_asymmetry = 0.0_dp
     !> The companion's values and |order L - companion| (the bar); companion_order 0: none
     integer :: companion_order = 0
     real(dp) :: companion_velocity_per_strain(6, n_strain_modes) = 0.0_dp
@@ -34,12 +37,15 @@ contains
 
   !> The free body's velocity and stresslet per unit strain amplitude from the grand resistance.
   !> ok = .false. when the friction block is not positive definite (then both are zero).
-  pure subroutine free_body_response(grand, velocity_per_strain, stresslet_per_strain, ok)
+  !> `asymmetry`: |s - s^T| / |s| before s is made symmetric.
+  pure subroutine free_body_response(grand, velocity_per_strain, stresslet_per_strain, ok, asymmetry)
     real(dp), intent(in) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
     real(dp), intent(out) :: velocity_per_strain(6, n_strain_modes), stresslet_per_strain(n_strain_modes, n_strain_modes)
     logical, intent(out) :: ok
+    real(dp), intent(out), optional :: asymmetry
     real(dp) :: factor(6, 6)
     integer :: info
+    if (present(asymmetry)) asymmetry = 0.0_dp
     factor = grand(1:6, 1:6)
     velocity_per_strain = grand(1:6, 7:)
     stresslet_per_strain = 0.0_dp
@@ -51,6 +57,8 @@ contains
     end if
     call dpotrs('L', 6, n_strain_modes, factor, 6, velocity_per_strain, 6, info)
     stresslet_per_strain = grand(7:, 7:) - matmul(grand(7:, 1:6), velocity_per_strain)
+    if (present(asymmetry)) asymmetry = norm2(stresslet_per_strain - transpose(stresslet_per_strain)) / &
+                                        max(norm2(stresslet_per_strain), tiny(1.0_dp))
     stresslet_per_strain = 0.5_dp * (stresslet_per_strain + transpose(stresslet_per_strain))
   end subroutine free_body_response
 
@@ -61,7 +69,8 @@ contains
     integer, intent(in) :: companion_order
     type(flow_response_t) :: response
     logical :: ok
-    call free_body_response(grand, response%velocity_per_strain, response%stresslet_per_strain, ok)
+    call free_body_response(grand, response%velocity_per_strain, response%stresslet_per_strain, ok, &
+                            response%stresslet_asymmetry)
     response%available = ok
     response%held_stresslet_per_strain = grand(7:, 7:)
     if (.not. ok .or. companion_order <= 0) return

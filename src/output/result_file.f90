@@ -345,6 +345,9 @@ contains
     call write_attribute(group, 'strain_deflation_vectors', strains%deflation_vectors, err)
     call write_attribute(group, 'strain_resumed', strains%resumed, err)
     call write_attribute(group, 'plain_symmetry_error', strains%plain_symmetry_error, err)
+    call write_attribute(group, 'stresslet_asymmetry', response%stresslet_asymmetry, err)
+    call write_attribute(group, 'bead_stresslets', trim(merge('Faxen''s law in the RPY fields (order 1)', &
+                         'the strain densities of the basis      ', config%hydrodynamics%multipole_order == 1)), err)
     call write_attribute(group, 'all_converged', merge(1, 0, all(strains%converged_reason > 0)), err)
     ! C-order readers see (5, 3, 3): mode k is strain_modes[k] (symmetric, so no transpose needed).
     call write_replicated_dataset(ctx, group, 'strain_modes', modes, err)

@@ -19,7 +19,8 @@ module beadmob_friction_job
   use beadmob_rigid_body_solve, only: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, &
                                       find_symmetry, solve_motions, keep_solution_part, bead_forces_of_solutions, &
                                       destroy_motion_solver, strain_statistics_t, pose_strains, &
-                                      strain_grand_resistance, keep_strain_solution_part
+                                      strain_grand_resistance, keep_strain_solution_part, add_bead_stresslets
+  use beadmob_bead_stresslet, only: stresslet_pattern_response
   use beadmob_linear_flow, only: n_strain_modes, strain_projection, strain_rotation
   use beadmob_progress, only: progress_line, progress_seconds
   use beadmob_checkpoint_file, only: reals_digest
@@ -212,7 +213,9 @@ contains
     type(bead_block_preconditioner_t), allocatable, target :: bead_blocks
     type(motion_solver_t) :: solver
     real(dp), allocatable :: projection(:, :), self(:, :), own_strain(:, :)
-    real(dp) :: start, lubrication_sum(6, 6), local(6, 6)
+    ! An order-1 job's strains: the projected fields of the strained beads (their stresslets)
+    real(dp), allocatable :: strained_response(:, :)
+    real(dp) :: start, lubrication_sum(6, 6), local(6, 6), pair_sum_start
     Mat :: matrix, near_field
     integer(i8) :: first, count
     integer :: local_pairs, phase
@@ -305,7 +308,18 @@ contains
       call solve_level(solver, op, basis, projection, job_result%multipole_friction, job_result%solves, err)
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
       call mask_uncomputed(job_result%solves, job_result%multipole_friction)
-      if (settings%flow) call strain_grand_resistance(solver, job_result%grand_resistance, job_result%strain_solves)
+      if (settings%flow) then
+        call strain_grand_resistance(solver, job_result%grand_resistance, job_result%strain_solves)
+        ! Order 1: the beads' own stresslets by Faxen's law, from a pair sum (bead_stresslet.f90).
+        if (basis%order == 1) then
+          pair_sum_start = MPI_Wtime()
+          allocate (strained_response(basis%size * count, n_strain_modes))
+          call stresslet_pattern_response(centres, first, count, projection, strained_response)
+          call add_bead_stresslets(solver, strained_response, job_result%grand_resistance)
+          call progress_line(report, 'bead stresslets (order 1, Faxen''s law): pair sum over ' // &
+                             str(size(centres, 2)) // ' beads, ' // progress_seconds(MPI_Wtime() - pair_sum_start) // ' s')
+        end if
+      end if
       if (allocated(solver%symmetry)) job_result%symmetry_group_order = solver%symmetry%group_order
       ! The pfft far field's error on a sample of rows (theory.md T16), before the solutions go;
       ! its bound needs the whole friction (all six motions)

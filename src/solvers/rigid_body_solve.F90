@@ -26,6 +26,7 @@ module beadmob_rigid_body_solve
   use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_linear_flow, only: n_strain_modes, strain_velocity
+  use beadmob_bead_stresslet, only: bead_self_stresslet
   use beadmob_multipole_operator, only: multipole_operator_t
   use beadmob_lockstep_cg, only: krylov_limits_t, solve_lockstep
   use beadmob_deflation_space, only: deflation_space_t, make_deflation_space, destroy_deflation_space
@@ -40,7 +41,8 @@ module beadmob_rigid_body_solve
   private
   public :: solve_statistics_t, motion_solver_t, create_motion_solver, use_checkpoint, find_symmetry, solve_motions, &
             keep_solution_part, bead_forces_of_solutions, destroy_motion_solver, motion_names, &
-            strain_statistics_t, pose_strains, strain_grand_resistance, keep_strain_solution_part, strain_names
+            strain_statistics_t, pose_strains, strain_grand_resistance, keep_strain_solution_part, strain_names, &
+            add_bead_stresslets
 
   character(len=*), parameter :: motion_names(6) = [character(len=3) :: 'U_x', 'U_y', 'U_z', 'W_x', 'W_y', 'W_z']
   character(len=*), parameter :: strain_names(n_strain_modes) = [character(len=3) :: 'E_1', 'E_2', 'E_3', 'E_4', 'E_5']
@@ -687,6 +689,34 @@ contains
                        ' iterations in all' // trim(merge(', with the motions', '                  ', &
                        stats%solved_together == 1)))
   end subroutine strain_grand_resistance
+
+  !> Collective, after strain_grand_resistance of an order-1 solve: the beads' own stresslets
+  !> (bead_stresslet.f90) added to the strain rows of its grand resistance,
+  !>   grand(E_k, n) += N s0 [n = E_k] - sum_j response_kj . q_nj   (n = U_x..W_z, E_1..E_5),
+  !> `response` (nb n_local x 5) this rank's part of the strained beads' projected fields. Only the
+  !> rows: the stresslets are read from the forces and do not act back on them, so the matrix is
+  !> no longer symmetric by what they add (theory.md T19).
+  subroutine add_bead_stresslets(solver, response, grand)
+    type(motion_solver_t), intent(in) :: solver
+    real(dp), intent(in) :: response(:, :)
+    real(dp), intent(inout) :: grand(6 + n_strain_modes, 6 + n_strain_modes)
+    Vec :: q(6 + n_strain_modes)
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    real(dp) :: work(n_strain_modes, 6 + n_strain_modes)
+    integer :: k, n
+    q = [solver%solution, solver%strain_solution]
+    do n = 1, size(q)
+      PetscCallA(VecGetArrayReadF90(q(n), values, ierr))
+      work(:, n) = matmul(values, response)
+      PetscCallA(VecRestoreArrayReadF90(q(n), values, ierr))
+    end do
+    call MPI_Allreduce(MPI_IN_PLACE, work, size(work), MPI_DOUBLE_PRECISION, MPI_SUM, solver%ctx%comm, ierr)
+    do k = 1, n_strain_modes
+      grand(6 + k, :) = grand(6 + k, :) - work(k, :)
+      grand(6 + k, 6 + k) = grand(6 + k, 6 + k) + real(solver%n_total, dp) * bead_self_stresslet
+    end do
+  end subroutine add_bead_stresslets
 
   !> Collective. |c_k - A q_k| / |c_k| of strain k (its residual vector left in strain_residual(k)).
   real(dp) function strain_true_residual(solver, k) result(relative)

@@ -22,6 +22,10 @@ program's own promises.
    Jeffrey & Onishi (1984): to 1e-10 at L = 12, within the bar at L = 2.
 9. Checkpoint and resume of a flow job: the motions and the strains saved are resumed, the rest
    solved, and the result is the uninterrupted run's within 1e-7.
+10. Order L = 1, whose beads get their own stresslets by Faxen's law in the Rotne-Prager-Yamakawa
+   fields (src/multipole/bead_stresslet.f90): one bead has the Einstein stresslet (20/3) pi a^3 I to
+   1e-12; a doublet's stresslet approaches Jeffrey & Onishi's as the stresslets' neglected mutual
+   interaction, ~ (a/r)^3 (within 5 % at r/a = 4, falling 6x or more from r/a = 16 to 32).
 """
 import os
 import subprocess
@@ -199,6 +203,23 @@ for name in ("grand_resistance", "velocity_per_strain", "stresslet_per_strain"):
     a, b = plain["flow/" + name][()], resumed["flow/" + name][()]
     difference = np.abs(a - b).max() / np.abs(a).max()
     check(difference < 1e-7, f"resumed {name} within {difference:.1e} of the uninterrupted run's")
+
+# 10. Order 1: the beads' own stresslets.
+one_l1 = run("flow_one_bead_L1", bead_file("one_bead.txt", np.zeros((1, 3))),
+             hydro="flow = .true., multipole_order = 1")["flow"]
+deviation = np.abs(one_l1["stresslet_per_strain"][()] - einstein * np.eye(5)).max() / einstein
+check(deviation < 1e-12 and "Faxen" in str(one_l1.attrs["bead_stresslets"]),
+      f"L = 1, one bead: stresslet per strain = 20/3 pi a^3 I within {deviation:.1e} (Faxen's law)")
+errors = {}
+for ratio in (4.0, 16.0, 32.0):
+    np.savetxt(os.path.join(workdir, "pair.txt"), np.array([[0.0, 0.0, 0.0], [0.0, 0.0, ratio / 2]]))
+    t = run("flow_doublet_L1", "&shape name = 'bead_file', file = 'pair.txt' /",
+            hydro="flow = .true., multipole_order = 1, krylov_rtol = 1e-12")["flow/stresslet_per_strain"][()]
+    exact_t = doublet_flow(ratio, radius=0.5)["stresslet_per_strain"]
+    errors[ratio] = np.abs(t - exact_t).max() / np.abs(exact_t).max()
+check(errors[4.0] < 0.05 and errors[16.0] / errors[32.0] > 6,
+      f"L = 1 doublet: stresslet within {errors[4.0]:.1e} (r/a = 4), {errors[16.0]:.1e} (16), {errors[32.0]:.1e} (32) "
+      "of the two-sphere series")
 
 # 6. Refusals.
 one_bead = "&shape name = 'bead_file', file = 'one_bead.txt' /"
