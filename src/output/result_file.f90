@@ -344,6 +344,7 @@ contains
     call write_attribute(group, 'strain_solved_together', strains%solved_together, err)
     call write_attribute(group, 'strain_deflation_vectors', strains%deflation_vectors, err)
     call write_attribute(group, 'strain_resumed', strains%resumed, err)
+    call write_attribute(group, 'strain_derived_from', strains%source, err)
     call write_attribute(group, 'plain_symmetry_error', strains%plain_symmetry_error, err)
     call write_attribute(group, 'stresslet_asymmetry', response%stresslet_asymmetry, err)
     call write_attribute(group, 'bead_stresslets', trim(merge('Faxen''s law in the RPY fields (order 1)', &

@@ -13,7 +13,8 @@ module beadmob_job_plan
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
   use beadmob_multipole_basis, only: basis_size
   use beadmob_dense_operator, only: dense_max_unknowns
-  use beadmob_motion_symmetry, only: find_symmetry_group, solves_needed, n_symmetries
+  use beadmob_motion_symmetry, only: find_symmetry_group, solves_needed, n_symmetries, strain_sources
+  use beadmob_linear_flow, only: n_strain_modes
   use beadmob_job_estimate, only: job_estimate_t, estimate_job
   use beadmob_friction_settings, only: friction_settings_t, automatic_shell_layers
   use beadmob_job_defaults, only: is_set
@@ -136,7 +137,17 @@ contains
                                  settings%multipole_order, settings%potential_order, trim(plan%operator_name), plan%n_ranks, &
                                  plan%n_solves, shell, oversubscription, settings%error_estimate .and. all(settings%motions), &
                                  plan%pfft_near_radius, fft_mirrors(plan%solve_centres, settings), &
-                                 plan%replicated_products, solve_rtol(settings), merge(5, 0, settings%flow))
+                                 plan%replicated_products, solve_rtol(settings), merge(strain_solves(), 0, settings%flow))
+
+  contains
+
+    !> The flow's strain solves: five less those the symmetries derive (motion_symmetry.F90).
+    integer function strain_solves()
+      integer :: source(n_strain_modes), symmetry(n_strain_modes)
+      real(dp) :: weights(n_strain_modes, n_strain_modes)
+      call strain_sources(plan%symmetry_group, source, symmetry, weights)
+      strain_solves = count(source == 0)
+    end function strain_solves
   end subroutine make_job_plan
 
   !> The spans (sites per axis less one) an operator's cost follows: the lattice box of the solve

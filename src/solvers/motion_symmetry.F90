@@ -6,6 +6,11 @@
 !> pseudo-vector). So only one motion per orbit of the six unit motions under the symmetry group
 !> is solved: 2 of 6 for a sphere or cube, 4 for a body with a four-fold axis, 6 for a body with
 !> mirror planes only (a mirror maps each motion to +-itself).
+!> The strains of a linear flow (theory.md T19) turn as tensors: E_k into Q E_k Q^T = sum_l D_lk E_l
+!> (D = strain_rotation(Q), no det), so q_m = (S_Q q_k - sum_{l /= m} D_lk q_l) / D_mk once the q_l it
+!> needs are known: the off-diagonal strains (xy, xz, yz) go into one another as the axes do, and
+!> E_5 follows from E_4 where a symmetry moves the z axis (a sphere: 2 of 5 solved; a four-fold axis
+!> z: 4; mirror planes only: 5).
 !> The group is found from the bead set, never assumed: every symmetry is checked bead by bead
 !> (once, by the job's plan), and every derived solution gets the same true-residual check as a
 !> solved one.
@@ -17,10 +22,14 @@ module beadmob_motion_symmetry
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
   use beadmob_lattice_symmetry, only: n_symmetries, symmetry_matrix, basis_transforms
   use beadmob_multipole_basis, only: multipole_basis_t
+  use beadmob_linear_flow, only: n_strain_modes, strain_rotation
   implicit none
   private
   public :: motion_symmetry_t, find_symmetry_group, find_motion_symmetry, derive_solution, destroy_motion_symmetry, &
-            symmetry_tolerance, solves_needed, n_symmetries
+            symmetry_tolerance, solves_needed, n_symmetries, strain_sources, derive_strain_solution
+
+  !> An entry of D(Q) below this is zero (its entries are 0, +-1/2, +-sqrt(3)/2, +-1 up to rounding).
+  real(dp), parameter :: strain_entry_tolerance = 1.0e-9_dp
 
   !> Bead images must land on a bead within this distance (d).
   real(dp), parameter :: symmetry_tolerance = 1.0e-6_dp
@@ -37,6 +46,13 @@ module beadmob_motion_symmetry
     !> D_Q of each derived motion's symmetry (nb, nb, 6), and the bead permutation as a scatter
     real(dp), allocatable :: transform(:, :, :)
     VecScatter :: permute(6)
+    !> Per strain (with_strains): 0 = solved, else the strain k it is derived from by the symmetry
+    !> strain_symmetry(m); strain_weights(:, m) = column k of D(Q), so that
+    !> q_m = (S_Q q_k - sum_{l /= m} strain_weights(l, m) q_l) / strain_weights(m, m)
+    integer :: strain_source(n_strain_modes) = 0, strain_symmetry(n_strain_modes) = 0
+    real(dp) :: strain_weights(n_strain_modes, n_strain_modes) = 0.0_dp
+    real(dp), allocatable :: strain_transform(:, :, :)
+    VecScatter :: strain_permute(n_strain_modes)
   end type motion_symmetry_t
 
 contains
@@ -81,7 +97,8 @@ contains
   !> about reference_point) gives for free, and how: the operator's basis transforms and the bead
   !> permutations of the symmetries used. `template` is a vector of the operator's layout (nb rows
   !> per bead, this rank's beads first..first+n_local-1).
-  subroutine find_motion_symmetry(comm, basis, centres, reference_point, in_group, first, n_local, template, symmetry, err)
+  subroutine find_motion_symmetry(comm, basis, centres, reference_point, in_group, first, n_local, template, symmetry, &
+                                  err, with_strains)
     MPI_Comm, intent(in) :: comm
     type(multipole_basis_t), intent(in) :: basis
     real(dp), intent(in) :: centres(:, :), reference_point(3)
@@ -90,38 +107,62 @@ contains
     Vec, intent(in) :: template
     type(motion_symmetry_t), intent(out) :: symmetry
     type(error_t), intent(inout) :: err
+    logical, intent(in), optional :: with_strains   ! also the strains' sources (default: no)
     type(spatial_index_t) :: index
     integer(i8), allocatable :: image(:)
     real(dp), allocatable :: all_transforms(:, :, :)
-    integer :: motion
-    logical :: mapped
+    integer :: motion, m
     PetscErrorCode :: ierr
 
     symmetry%group_order = count(in_group)
     call orbit_sources(in_group, symmetry%source, symmetry%sign, symmetry%symmetry)
     symmetry%coupled = coupled_motions(in_group)
-    if (all(symmetry%source == 0)) return
+    if (present(with_strains)) then
+      if (with_strains) call strain_sources(in_group, symmetry%strain_source, symmetry%strain_symmetry, &
+                                            symmetry%strain_weights)
+    end if
+    if (all(symmetry%source == 0) .and. all(symmetry%strain_source == 0)) return
 
     call build_spatial_index(centres, index, err)
     if (err%failed) return
     ! Each rank keeps the images of its own beads only (O(N/P) memory per rank).
     allocate (image(first:first + n_local - 1))
-    allocate (all_transforms(basis%size, basis%size, n_symmetries), symmetry%transform(basis%size, basis%size, 6))
+    allocate (all_transforms(basis%size, basis%size, n_symmetries), symmetry%transform(basis%size, basis%size, 6), &
+              symmetry%strain_transform(basis%size, basis%size, n_strain_modes))
     call basis_transforms(basis, all_transforms)
     do motion = 1, 6
       if (symmetry%source(motion) == 0) cycle
       symmetry%transform(:, :, motion) = all_transforms(:, :, symmetry%symmetry(motion))
-      mapped = maps_onto_itself(symmetry_matrix(symmetry%symmetry(motion)), image)
-      call MPI_Allreduce(MPI_IN_PLACE, mapped, 1, MPI_LOGICAL, MPI_LAND, comm, ierr)
-      if (.not. mapped) then   ! not these beads' group: a caller's error, the same on every rank
-        call raise(err, 'internal: a symmetry of the plan does not map the beads of the solve onto themselves')
+      if (.not. permutation_made(symmetry%symmetry(motion), symmetry%permute(motion))) then
         symmetry%source(motion:) = 0
+        symmetry%strain_source = 0
         return
       end if
-      call make_permutation(image, symmetry%permute(motion))
+    end do
+    do m = 1, n_strain_modes
+      if (symmetry%strain_source(m) == 0) cycle
+      symmetry%strain_transform(:, :, m) = all_transforms(:, :, symmetry%strain_symmetry(m))
+      if (.not. permutation_made(symmetry%strain_symmetry(m), symmetry%strain_permute(m))) then
+        symmetry%strain_source(m:) = 0
+        return
+      end if
     end do
 
   contains
+
+    !> The bead permutation of symmetry s as a scatter; .false. (err raised, the same on every
+    !> rank) when s does not map the beads onto themselves: not these beads' group, a caller's error.
+    logical function permutation_made(s, scatter)
+      integer, intent(in) :: s
+      VecScatter, intent(out) :: scatter
+      permutation_made = maps_onto_itself(symmetry_matrix(s), image)
+      call MPI_Allreduce(MPI_IN_PLACE, permutation_made, 1, MPI_LOGICAL, MPI_LAND, comm, ierr)
+      if (permutation_made) then
+        call make_permutation(image, scatter)
+      else
+        call raise(err, 'internal: a symmetry of the plan does not map the beads of the solve onto themselves')
+      end if
+    end function permutation_made
 
     !> True if Q maps every bead of this rank onto a bead; image_of(b) = that bead.
     logical function maps_onto_itself(q, image_of)
@@ -180,6 +221,67 @@ contains
       end do
     end do
   end subroutine orbit_sources
+
+  !> The strains the group in_group gives: mode m (in order) is derived when some symmetry Q of
+  !> the group turns an earlier mode k into a combination of m and earlier modes only,
+  !> Q E_k Q^T = sum_l D_lk E_l with D_mk /= 0 (source(m) = k, symmetry(m) = Q's index, weights(:, m)
+  !> = D(:, k)); else it is solved. Earlier modes are known (solved or derived) when m is derived.
+  pure subroutine strain_sources(in_group, source, symmetry, weights)
+    logical, intent(in) :: in_group(n_symmetries)
+    integer, intent(out) :: source(n_strain_modes), symmetry(n_strain_modes)
+    real(dp), intent(out) :: weights(n_strain_modes, n_strain_modes)
+    real(dp) :: d(n_strain_modes, n_strain_modes)
+    logical :: used(n_strain_modes)
+    integer :: m, k, s
+    source = 0
+    symmetry = 0
+    weights = 0.0_dp
+    modes: do m = 2, n_strain_modes
+      do s = 1, n_symmetries
+        if (.not. in_group(s)) cycle
+        d = strain_rotation(real(symmetry_matrix(s), dp))
+        do k = 1, m - 1
+          used = abs(d(:, k)) > strain_entry_tolerance
+          if (used(m) .and. .not. any(used(m + 1:))) then
+            source(m) = k
+            symmetry(m) = s
+            weights(:, m) = merge(d(:, k), 0.0_dp, used)
+            cycle modes
+          end if
+        end do
+      end do
+    end do modes
+  end subroutine strain_sources
+
+  !> Collective. Strain m derived (symmetry%strain_source(m) > 0) from the strains' solutions
+  !> `solutions` (those it needs already there): q_m = (S_Q q_k - sum_{l /= m} w_l q_l) / w_m.
+  subroutine derive_strain_solution(symmetry, m, solutions)
+    type(motion_symmetry_t), intent(in) :: symmetry
+    integer, intent(in) :: m
+    Vec, intent(in) :: solutions(n_strain_modes)   ! PETSc handles: solutions(m) is written
+    Vec :: turned
+    PetscScalar, pointer :: values(:)
+    PetscErrorCode :: ierr
+    integer :: nb, i, l
+    associate (w => symmetry%strain_weights(:, m))
+    nb = size(symmetry%strain_transform, 1)
+    PetscCallA(VecDuplicate(solutions(symmetry%strain_source(m)), turned, ierr))
+    PetscCallA(VecCopy(solutions(symmetry%strain_source(m)), turned, ierr))
+    PetscCallA(VecGetArrayF90(turned, values, ierr))
+    do i = 1, size(values) / nb
+      values(nb * (i - 1) + 1:nb * i) = matmul(symmetry%strain_transform(:, :, m), values(nb * (i - 1) + 1:nb * i))
+    end do
+    PetscCallA(VecRestoreArrayF90(turned, values, ierr))
+    PetscCallA(VecScatterBegin(symmetry%strain_permute(m), turned, solutions(m), INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecScatterEnd(symmetry%strain_permute(m), turned, solutions(m), INSERT_VALUES, SCATTER_FORWARD, ierr))
+    do l = 1, n_strain_modes
+      if (l == m .or. w(l) == 0.0_dp) cycle
+      PetscCallA(VecAXPY(solutions(m), -w(l), solutions(l), ierr))
+    end do
+    PetscCallA(VecScale(solutions(m), 1.0_dp / w(m), ierr))
+    PetscCallA(VecDestroy(turned, ierr))
+    end associate
+  end subroutine derive_strain_solution
 
   !> coupled(m, n) unless a symmetry of the group maps motion m to sign_m m and n to sign_n n with
   !> sign_m /= sign_n: then A (which commutes with the symmetry) never mixes their solves, the
@@ -274,6 +376,11 @@ contains
       if (symmetry%source(motion) == 0) cycle
       PetscCallA(VecScatterDestroy(symmetry%permute(motion), ierr))
     end do
+    do motion = 1, n_strain_modes
+      if (symmetry%strain_source(motion) == 0) cycle
+      PetscCallA(VecScatterDestroy(symmetry%strain_permute(motion), ierr))
+    end do
     symmetry%source = 0
+    symmetry%strain_source = 0
   end subroutine destroy_motion_symmetry
 end module beadmob_motion_symmetry

@@ -23,7 +23,8 @@ module beadmob_rigid_body_solve
   use beadmob_vector_algebra, only: cross
   use beadmob_kinds, only: dp, i8
   use beadmob_bead_block_preconditioner, only: bead_block_preconditioner_t, attach_bead_block_preconditioner
-  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry
+  use beadmob_motion_symmetry, only: motion_symmetry_t, find_motion_symmetry, derive_solution, destroy_motion_symmetry, &
+                                     derive_strain_solution
   use beadmob_multipole_basis, only: multipole_basis_t
   use beadmob_linear_flow, only: n_strain_modes, strain_velocity
   use beadmob_bead_stresslet, only: bead_self_stresslet
@@ -60,6 +61,8 @@ module beadmob_rigid_body_solve
     integer :: deflation_vectors = 0
     !> 1: the strain's solution was loaded from the checkpoint instead of solved
     integer :: resumed(n_strain_modes) = 0
+    !> 0: solved (or resumed); k: derived from strain k by a symmetry of the beads (motion_symmetry.F90)
+    integer :: source(n_strain_modes) = 0
     !> ||G - G^T|| / ||G|| of the plain estimate of the grand resistance G_mn = c_m . q_n
     real(dp) :: plain_symmetry_error = 0.0_dp
   end type strain_statistics_t
@@ -270,7 +273,7 @@ contains
     type(error_t), intent(inout) :: err
     allocate (solver%symmetry)
     call find_motion_symmetry(solver%ctx%comm, basis, centres, reference_point, in_group, solver%first_bead, &
-                              solver%n_local, solver%template, solver%symmetry, err)
+                              solver%n_local, solver%template, solver%symmetry, err, with_strains=solver%strains_posed)
     ! The same replicated centres everywhere: only a resource failure differs.
     call agree_on_error(solver%ctx, err)
   end subroutine find_symmetry
@@ -381,9 +384,10 @@ contains
       end if
     end do
     ! The strains not resumed start as the motions do (a failed or foreign load leaves nothing).
+    if (solver%strains_posed) solver%strain_stats%source = strain_sources_of(solver)
     do k = 1, n_strain_modes
       if (.not. solver%strains_posed) exit
-      if (solver%strain_loaded(k)) cycle
+      if (solver%strain_loaded(k) .or. solver%strain_stats%source(k) > 0) cycle
       if (allocated(solver%strain_initial_guess)) then
         PetscCallA(VecGetArrayF90(solver%strain_solution(k), values, ierr))
         values = solver%strain_initial_guess(:, k)
@@ -407,7 +411,8 @@ contains
     else if (solver%together .and. solver%strains_posed) then
       ! The motions and the strains in one batch (theory.md T19), deflated by the right-hand sides
       ! of all eleven problems: the strains' slow part is the body's large-scale response.
-      strains_to_solve = pack([(k, k=1, n_strain_modes)], .not. solver%strain_loaded)
+      strains_to_solve = pack([(k, k=1, n_strain_modes)], .not. solver%strain_loaded .and. &
+                              solver%strain_stats%source == 0)
       systems = [rhs(to_solve), solver%strain_rhs(strains_to_solve)]
       unknowns = [solution(to_solve), solver%strain_solution(strains_to_solve)]
       solver%strain_stats%solved_together = 1
@@ -435,7 +440,7 @@ contains
         nonzero_start = merge(PETSC_TRUE, PETSC_FALSE, allocated(solver%strain_initial_guess))
         PetscCallA(KSPSetInitialGuessNonzero(solver%ksp, nonzero_start, ierr))
         do k = 1, n_strain_modes
-          if (solver%strain_loaded(k)) cycle
+          if (solver%strain_loaded(k) .or. solver%strain_stats%source(k) > 0) cycle
           PetscCallA(KSPSolve(solver%ksp, solver%strain_rhs(k), solver%strain_solution(k), ierr))
           PetscCallA(KSPGetIterationNumber(solver%ksp, iterations, ierr))
           PetscCallA(KSPGetConvergedReason(solver%ksp, reason, ierr))
@@ -457,6 +462,14 @@ contains
       stats%iterations(motion) = 0
       stats%converged_reason(motion) = stats%converged_reason(stats%source(motion))
       call true_residual(motion)
+    end do
+    ! The strains likewise, in order (each from earlier ones); strain_grand_resistance checks them.
+    do k = 1, n_strain_modes
+      if (.not. solver%strains_posed) exit
+      if (solver%strain_stats%source(k) == 0) cycle
+      call derive_strain_solution(solver%symmetry, k, solver%strain_solution)
+      solver%strain_stats%iterations(k) = 0
+      solver%strain_stats%converged_reason(k) = solver%strain_stats%converged_reason(solver%strain_stats%source(k))
     end do
 
     ! zeta_mn = c_m . q_n + q_m . r_n (the force and torque of solution n projected on motion m).
@@ -718,6 +731,14 @@ contains
     end do
   end subroutine add_bead_stresslets
 
+  !> The strains the solver's symmetries derive (strain_statistics_t%source): none without them.
+  pure function strain_sources_of(solver) result(source)
+    type(motion_solver_t), intent(in) :: solver
+    integer :: source(n_strain_modes)
+    source = 0
+    if (allocated(solver%symmetry)) source = solver%symmetry%strain_source
+  end function strain_sources_of
+
   !> Collective. |c_k - A q_k| / |c_k| of strain k (its residual vector left in strain_residual(k)).
   real(dp) function strain_true_residual(solver, k) result(relative)
     type(motion_solver_t), intent(inout) :: solver
@@ -765,6 +786,8 @@ contains
     real(dp), target :: no_columns(solver%nb, 0)
     PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
+    integer :: derived_strains(n_strain_modes)
+    derived_strains = strain_sources_of(solver)
     call open_checkpoint(solver%ctx, solver%checkpoint_file, solver%key, file_id, outcome, problem)
     if (outcome == checkpoint_matches) then
       do m = 1, 6
@@ -782,6 +805,7 @@ contains
       ! The strains (theory.md T19), each kept only if it gives the true residual it was saved with.
       do m = 1, n_strain_modes
         if (.not. solver%strains_posed .or. problem%failed) exit
+        if (derived_strains(m) > 0) cycle   ! derived again from the others
         PetscCallA(VecGetArrayF90(solver%strain_solution(m), values, ierr))
         block => columns(solver, values, no_columns)
         call read_checkpoint_motion(file_id, strain_names(m), block, solver%first_bead, solver%n_total, found, &
