@@ -52,11 +52,14 @@ def run(exe, shape, flow, workdir, ranks):
         h = f["hydrodynamics"]
         seconds = dict(zip(h.attrs["phase_names"].decode().split(), h.attrs["phase_seconds"]))
         iterations = int(np.sum(h.attrs["solve_iterations"]))
+        strains_solved = 0
         if flow:
             iterations += int(np.sum(f["flow"].attrs["strain_iterations"]))
+            strains_solved = int(np.sum(f["flow"].attrs["strain_derived_from"] == 0))
         return {"wall": wall, "solve": seconds["solve"], "companion": seconds["companion"], "total": seconds["total"],
                 "memory": float(h.attrs["peak_memory_bytes"]) / 2**20, "iterations": iterations,
-                "beads": int(f["geometry"].attrs["n_beads"]), "solved": int(np.sum(h.attrs["solve_source"] == 0))}
+                "beads": int(f["geometry"].attrs["n_beads"]), "solved": int(np.sum(h.attrs["solve_source"] == 0)),
+                "strains solved": strains_solved}
 
 
 def main():
@@ -90,16 +93,16 @@ def main():
         + (", C = without it on the build before the flow was added" if args.before else "") + "). "
         "Wall: the whole process; solve, companion: the result file's phases; memory: peak resident set of "
         "the largest rank; iterations: the order-L Krylov iterations (motions, plus the strains in A); "
-        "solved: motions solved (the rest derived by symmetry). Ratios: medians of the round-by-round ratios.",
+        "solved: motions solved, strains solved in A (the rest derived by symmetry). Ratios: medians of the round-by-round ratios.",
         "",
-        "| job | beads | solved | wall A (s) | wall B (s) | A / B | solve A | solve B | companion A | companion B | "
+        "| job | beads | solved | strains solved | wall A (s) | wall B (s) | A / B | solve A | solve B | companion A | companion B | "
         "memory A (MiB) | memory B (MiB) | iterations A | iterations B |"
         + (" wall C (s) | B / C | memory C (MiB) |" if args.before else ""),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|---|" if args.before else ""),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|---|" if args.before else ""),
     ]
     for label, runs in rows:
         a, b = runs["A"], runs["B"]
-        line = (f"| {label} | {a[0]['beads']} | {a[0]['solved']} | {med(a, 'wall'):.2f} | {med(b, 'wall'):.2f} | "
+        line = (f"| {label} | {a[0]['beads']} | {a[0]['solved']} | {a[0]['strains solved']} | {med(a, 'wall'):.2f} | {med(b, 'wall'):.2f} | "
                 f"{ratio(a, b, 'wall'):.2f} | {med(a, 'solve'):.2f} | {med(b, 'solve'):.2f} | "
                 f"{med(a, 'companion'):.2f} | {med(b, 'companion'):.2f} | {med(a, 'memory'):.0f} | "
                 f"{med(b, 'memory'):.0f} | {a[0]['iterations']} | {b[0]['iterations']} |")
