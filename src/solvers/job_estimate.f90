@@ -26,6 +26,9 @@ module beadmob_job_estimate
   !> With the flow (theory.md T19): 15 strain vectors and the lockstep work of five systems (4
   !> each) beside the motions' 18, which stay for the grand resistance
   real(dp), parameter :: flow_vectors_per_unknown = 27.0_dp
+  !> An order-1 flow job's pair sum for the beads' own stresslets (bead_stresslet.f90), per pair
+  !> of a rank's bead with any bead: 2.42 s for 16210 beads on 2 ranks, 4.91 s on 1 (theory.md T19)
+  real(dp), parameter :: bead_stresslet_seconds_per_pair = 1.9e-8_dp
   ! Largest CG iteration count of the solves, a N_solve^p: the full model (bench/scaling/scaling.md before
   ! the shell default: 18 at 1e3 to 37 at 1e5 beads) and the one-layer shell (11 at 354 beads in
   ! the solve to 18 at 4e4).
@@ -154,6 +157,8 @@ contains
     low_products = real(n_solves + strains, dp) * (companion_iteration_ratio * e%iterations + 1) + (6 - n_solves)
     e%seconds_blocks = cost%seconds_setup * max(oversubscription, 1.0_dp)
     e%seconds_solve = products * cost%seconds_product * max(oversubscription, 1.0_dp)
+    if (strains > 0 .and. order == 1) e%seconds_solve = e%seconds_solve + bead_stresslet_seconds_per_pair * &
+                                                        size%local_beads * real(solve_beads, dp) * max(oversubscription, 1.0_dp)
     if (size%nb_low > 0) e%seconds_companion = low_products * cost%seconds_low_product * max(oversubscription, 1.0_dp)
     e%seconds_total = e%seconds_blocks + e%seconds_solve + e%seconds_companion
   end function estimate_job
