@@ -1,0 +1,188 @@
+#!/usr/bin/env python3
+"""estimator_variants.py [--coverage DIR] [--nonconvex DIR] [--out FILE]: would another error-bar
+estimator make a real particle's continuum bar as small as an ellipsoid's and still hold?
+
+Issue 44 item 4 asks for bars of 0.1 % (translation) and 0.3 % (rotation) on non-ellipsoidal bodies
+at the default budget. The continuum job's estimator (docs/theory.md T18) is replayed here, without
+a solve, on the samples of jobs already run and kept:
+
+* the coverage jobs (bench/continuum/coverage.py --keep DIR; 21 jobs of 12 bodies with exact
+  mobilities, 114 principal diagonal entries): how many exact values each variant's bar holds and
+  the median bar / true error (target <= 4);
+* the non-convex jobs (bench/continuum/nonconvex.py --keep DIR: dumbbell, bent rod, 3-D cross, rough
+  sphere, and the 1.6:1:0.7 ellipsoid beside them): the largest translation and rotation bar of each,
+  relative to the value, in the body's principal frame.
+
+Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/continuum_bar.py):
+* beadmob: as the job does it (the reference row; the coverage replay reproduces the files' bars);
+* floor 0.5, floor 1: a level's standard error floored at half / all of the median level's
+  (beadmob: a fifth), i.e. levels whose offsets happen to agree weigh less;
+* half-range spread: the model spread as half the range of the three models' intercepts (the
+  quadratic, the line through the three finest levels, the quadratic without the coarsest) instead
+  of the largest distance from the quadratic's;
+* volume regression, moment regression: before the level means, each corrected sample's relative
+  deviation from its level's mean is regressed, pooled over all levels, on its relative volume
+  deviation (or on the volume and the six central second moments) and the fitted part removed: a
+  control variate learnt from the job's own samples, on top of the equivalent-ellipsoid correction.
+
+Kept jobs are not in the repository (the benches' run folders are ignored by git): run coverage.py
+and nonconvex.py with --keep first, or point --coverage / --nonconvex at their folders."""
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from continuum_jobs import ROOT  # noqa: E402
+import coverage  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "scripts"))
+from beadmob_post import continuum_bar as bar_module  # noqa: E402
+
+NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
+VARIANTS = ("beadmob", "floor 0.5", "floor 1", "half-range spread", "volume regression", "moment regression")
+
+
+class HalfRangeSpread(bar_module.Extrapolation):
+    @property
+    def model_spread(self) -> float:
+        intercepts = (self.value, self.linear_value, self.reduced_value)
+        return (max(intercepts) - min(intercepts)) / 2
+
+
+def floored_extrapolation(floor):
+    """beadmob's extrapolate with the standard-error floor at `floor` times the median level's."""
+    def extrapolate(h, mean, standard_error):
+        saved = bar_module.STANDARD_ERROR_FLOOR
+        bar_module.STANDARD_ERROR_FLOOR = floor
+        try:
+            return beadmob_extrapolate(h, mean, standard_error)
+        finally:
+            bar_module.STANDARD_ERROR_FLOOR = saved
+    return extrapolate
+
+
+def half_range_extrapolation(h, mean, standard_error):
+    fit = beadmob_extrapolate(h, mean, standard_error)
+    return HalfRangeSpread(fit.value, fit.standard_error, fit.linear_value, fit.reduced_value, fit.reduced_chi2)
+
+
+def sample_features(path, with_moments):
+    """Per sample: log volume and (with_moments) the six central second moments over their mean trace."""
+    with h5py.File(path) as f:
+        moments = np.asarray(f["continuum/sample_moments"][()], dtype=float)
+    volume = moments[:, 0]
+    centre = moments[:, 1:4] / volume[:, None]
+    second = moments[:, 4:13].reshape(-1, 3, 3) / volume[:, None, None] - np.einsum("si,sj->sij", centre, centre)
+    columns = [np.log(volume)]
+    if with_moments:
+        scale = np.trace(second.mean(axis=0)) / 3
+        columns += [second[:, i, j] / scale for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))]
+    return np.column_stack(columns)
+
+
+def regressed_bar(features):
+    """combination_bar with the pooled regression of the samples on `features` done first."""
+    def combination_bar(samples, weights, power):
+        values = np.einsum("sjk,jk->s", samples.sample_mobility, np.asarray(weights, dtype=float))
+        level = samples.sample_level
+        centred_x, centred_y, scale = features.copy(), values.copy(), np.empty_like(values)
+        for k in np.unique(level):
+            chosen = level == k
+            centred_x[chosen] -= features[chosen].mean(axis=0)
+            centred_y[chosen] -= values[chosen].mean()
+            scale[chosen] = values[chosen].mean()
+        beta = np.linalg.lstsq(centred_x, centred_y / scale, rcond=None)[0]
+        values = values - scale * (centred_x @ beta)
+        mean, error = bar_module.level_means(values, level, len(samples.bead_diameters))
+        fit = bar_module.extrapolate(samples.bead_diameters, mean, error)
+        return fit.value, fit.fit_error + abs(fit.value) * power / 3.0 * samples.volume_error / samples.volume, fit
+    return combination_bar
+
+
+beadmob_extrapolate = bar_module.extrapolate
+beadmob_combination_bar = bar_module.combination_bar
+
+
+def use_variant(variant, job):
+    """Set continuum_bar's functions for `variant` on the kept job result `job` (h5 path)."""
+    bar_module.extrapolate = {"floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
+                              "half-range spread": half_range_extrapolation}.get(variant, beadmob_extrapolate)
+    bar_module.combination_bar = beadmob_combination_bar
+    if variant.endswith("regression"):
+        bar_module.combination_bar = regressed_bar(sample_features(job, variant == "moment regression"))
+
+
+def coverage_row(variant, folder):
+    held, total, ratios = 0, 0, []
+    for body in coverage.BODIES:
+        for form in body.forms:
+            job = folder / f"{body.key}-{form}"
+            if not (job / "job.h5").exists():
+                continue
+            use_variant(variant, job / "job.h5")
+            for entry in coverage.analyse(body, form, job).get("entries", []):
+                total += 1
+                held += abs(entry["error"]) <= entry["bar"]
+                ratios.append(entry["bar"] / abs(entry["error"]))
+    return held, total, float(np.median(ratios)), float(np.min(ratios))
+
+
+def nonconvex_bars(variant, folder):
+    """{body: (largest translation bar %, largest rotation bar %)} in the principal frame."""
+    bars = {}
+    for key in NONCONVEX:
+        job = folder / key / "job.h5"
+        if not job.exists():
+            continue
+        use_variant(variant, job)
+        with h5py.File(job) as f:
+            axes = np.asarray(f["continuum/equivalent_axes"][()]).T   # h5py rows are the Fortran columns
+        relative = [100 * b / abs(v) for v, b, _ in bar_module.principal_diagonal(bar_module.read_samples(job), axes)]
+        bars[key] = (max(relative[:3]), max(relative[3:]))
+    return bars
+
+
+def job_sizes(folder):
+    sizes = {}
+    for key in NONCONVEX:
+        job = folder / key / "job.h5"
+        if job.exists():
+            with h5py.File(job) as f:
+                c = f["continuum"]
+                sizes[key] = (float(c.attrs["time_budget"]), int(np.max(c.attrs["sample_beads"])))
+    return sizes
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--coverage", default=str(HERE / "coverage_final_runs"))
+    parser.add_argument("--nonconvex", default=str(HERE / "nonconvex_runs"))
+    parser.add_argument("--out", default=str(HERE / "estimator_variants.md"))
+    args = parser.parse_args()
+    coverage_folder, nonconvex_folder = Path(args.coverage), Path(args.nonconvex)
+    sizes = job_sizes(nonconvex_folder)
+    lines = ["# Error-bar estimators replayed on kept continuum jobs", "",
+             f"Written by `bench/continuum/estimator_variants.py` on {time.strftime('%Y-%m-%d')} from the jobs kept in "
+             f"`{coverage_folder.relative_to(ROOT)}` (coverage.py) and `{nonconvex_folder.relative_to(ROOT)}` "
+             "(nonconvex.py); nothing solved. The non-convex jobs replayed here: "
+             + ", ".join(f"{k} ({b:.0f} s budget, finest level {n} beads)" for k, (b, n) in sizes.items())
+             + ". Variants: see the script's docstring.", "",
+             "| variant | coverage (held / entries) | median bar / error | smallest bar / error | "
+             + " | ".join(f"{k} t / r %" for k in sizes) + " |",
+             "|---|---|---|---|" + "---|" * len(sizes)]
+    for variant in VARIANTS:
+        held, total, median, smallest = coverage_row(variant, coverage_folder)
+        bars = nonconvex_bars(variant, nonconvex_folder)
+        lines.append(f"| {variant} | {held} / {total} | {median:.2f} | {smallest:.2f} | "
+                     + " | ".join(f"{bars[k][0]:.3f} / {bars[k][1]:.3f}" for k in sizes) + " |")
+        print(lines[-1], flush=True)
+    Path(args.out).write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
