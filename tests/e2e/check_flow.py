@@ -22,7 +22,8 @@ program's own promises.
 8. Two spheres rigidly joined, 2 d and 1.5 d apart, against the two-sphere resistance functions of
    Jeffrey & Onishi (1984): to 1e-10 at L = 12, within the bar at L = 2.
 9. Checkpoint and resume of a flow job: the motions and the strains saved are resumed, the rest
-   solved, and the result is the uninterrupted run's within 1e-7.
+   solved, and the result is the uninterrupted run's within 1e-7; with derived strains (the
+   spheroid) those are not saved and are derived again.
 10. Order L = 1, whose beads get their own stresslets by Faxen's law in the Rotne-Prager-Yamakawa
    fields (src/multipole/bead_stresslet.f90): one bead has the Einstein stresslet (20/3) pi a^3 I to
    1e-12; a doublet's stresslet approaches Jeffrey & Onishi's as the stresslets' neglected mutual
@@ -232,6 +233,24 @@ for ratio in (4.0, 16.0, 32.0):
 check(errors[4.0] < 0.05 and errors[16.0] / errors[32.0] > 6,
       f"L = 1 doublet: stresslet within {errors[4.0]:.1e} (r/a = 4), {errors[16.0]:.1e} (16), {errors[32.0]:.1e} (32) "
       "of the two-sphere series")
+
+# 9b. The same with derived strains: the spheroid (strains E_2, E_5 derived) stopped after its
+#     first motion solve resumes what was saved, derives the rest again, and gives the
+#     uninterrupted run's /flow within 1e-7.
+checkpoint = os.path.join(workdir, "flow_spheroid_resumed.h5.checkpoint.h5")
+for stale in (checkpoint, os.path.join(workdir, "flow_spheroid_resumed.h5")):
+    if os.path.exists(stale):
+        os.remove(stale)
+spheroid_shape = "&shape name = 'spheroid', semi_axes = 10, 5, 5 /"
+stopped = run("flow_spheroid_resumed", spheroid_shape, expect_failure=True, options=("-stop_after_solves", "1"))
+with h5py.File(checkpoint) as f:
+    saved_derived = [name for name in ("E_2", "E_5") if name in f]
+resumed = run("flow_spheroid_resumed", spheroid_shape)
+difference = max(np.abs(resumed["flow/" + name][()] - spheroid["flow/" + name][()]).max()
+                 / np.abs(spheroid["flow/" + name][()]).max() for name in ("grand_resistance", "stresslet_per_strain"))
+check(stopped.returncode != 0 and not saved_derived and
+      [int(k) for k in resumed["flow"].attrs["strain_derived_from"]] == [0, 1, 0, 0, 4] and difference < 1e-7,
+      f"spheroid stopped and resumed: derived strains not saved, derived again; /flow within {difference:.1e}")
 
 # 6. Refusals.
 one_bead = "&shape name = 'bead_file', file = 'one_bead.txt' /"
