@@ -855,8 +855,13 @@ def run_orbit(arguments, out: TextIO) -> int:
         if b["jeffery_period"] is not None:
             text += f"; Jeffery period {b['jeffery_period']:.8g}"
         if b.get("orbit_constant") is not None:
-            text += (f"; orbit constant C = {b['orbit_constant']:.6g} (relative change "
-                     f"{b['orbit_constant_relative_change']:.1g})")
+            if b.get("orbit_constant_relative_change") is not None:
+                change = f" (relative change {b['orbit_constant_relative_change']:.1g})"
+            elif b.get("orbit_constant_change") is not None:
+                change = f" (change {b['orbit_constant_change']:.1g}: the axis on the vorticity)"
+            else:
+                change = " (not finite along the orbit)"
+            text += f"; orbit constant C = {b['orbit_constant']:.6g}{change}"
         lines.append("revolution:       " + text)
     else:
         lines.append(f"revolution:       no (residual {b['residual']:.2g} of Bretherton's form)")

@@ -313,8 +313,12 @@ def summary(orbit: Orbit, axes: dict[str, np.ndarray], bretherton: Any = None, t
             constant = jeffery_orbit_constant(orbit.axis(bretherton.axis), bretherton.constant)
             finite = np.isfinite(constant)
             item["orbit_constant"] = float(constant[0]) if finite[0] else None
+            # C ~ 0 (the axis within 1e-8 of the vorticity, a fixed point): no relative change, the
+            # absolute one
+            change = float(np.abs(constant - constant[0]).max()) if finite.all() else None
+            item["orbit_constant_change"] = change
             item["orbit_constant_relative_change"] = (
-                float(np.abs(constant[finite] / constant[0] - 1).max()) if finite.all() else None)
+                change / abs(constant[0]) if change is not None and abs(constant[0]) > 1e-8 else None)
         data["bretherton"] = item
     mean_drift = np.trapezoid(orbit.drift, orbit.strain, axis=0) / orbit.strain[-1]
     data["drift"] = {"mean": mean_drift.tolist(), "largest": float(np.linalg.norm(orbit.drift, axis=1).max()),

@@ -157,6 +157,14 @@ def test_orbit_command(make_result_file, capsys, tmp_path):
     assert main(["orbit", str(path), "--strain", "40"]) == 0
     out = capsys.readouterr().out
     assert "revolution:       Bretherton B = 0.724138" in out and "body x (symmetry):" in out
+    # The axis on the vorticity (z in u = y e_x) stays there (Jeffery 1922: log-rolling), C = 0:
+    # no relative change to report, the absolute one instead.
+    assert main(["orbit", str(path), "--strain", "20", "--initial-axis", "0,0,1", "--json"]) == 0
+    log_rolling = json.loads(capsys.readouterr().out)["bretherton"]
+    assert log_rolling["orbit_constant"] == pytest.approx(0.0, abs=1e-12)
+    assert log_rolling["orbit_constant_relative_change"] is None and log_rolling["orbit_constant_change"] < 1e-10
+    assert main(["orbit", str(path), "--strain", "20", "--initial-axis", "0,0,1"]) == 0
+    assert "the axis on the vorticity" in capsys.readouterr().out
 
 
 def test_orbit_command_errors(make_result_file, capsys):
