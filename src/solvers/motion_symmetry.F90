@@ -259,27 +259,16 @@ contains
     type(motion_symmetry_t), intent(in) :: symmetry
     integer, intent(in) :: m
     Vec, intent(in) :: solutions(n_strain_modes)   ! PETSc handles: solutions(m) is written
-    Vec :: turned
-    PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
-    integer :: nb, i, l
+    integer :: l
     associate (w => symmetry%strain_weights(:, m))
-    nb = size(symmetry%strain_transform, 1)
-    PetscCallA(VecDuplicate(solutions(symmetry%strain_source(m)), turned, ierr))
-    PetscCallA(VecCopy(solutions(symmetry%strain_source(m)), turned, ierr))
-    PetscCallA(VecGetArrayF90(turned, values, ierr))
-    do i = 1, size(values) / nb
-      values(nb * (i - 1) + 1:nb * i) = matmul(symmetry%strain_transform(:, :, m), values(nb * (i - 1) + 1:nb * i))
-    end do
-    PetscCallA(VecRestoreArrayF90(turned, values, ierr))
-    PetscCallA(VecScatterBegin(symmetry%strain_permute(m), turned, solutions(m), INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCallA(VecScatterEnd(symmetry%strain_permute(m), turned, solutions(m), INSERT_VALUES, SCATTER_FORWARD, ierr))
+    call turn_solution(symmetry%strain_transform(:, :, m), symmetry%strain_permute(m), &
+                       solutions(symmetry%strain_source(m)), solutions(m))
     do l = 1, n_strain_modes
       if (l == m .or. w(l) == 0.0_dp) cycle
       PetscCallA(VecAXPY(solutions(m), -w(l), solutions(l), ierr))
     end do
     PetscCallA(VecScale(solutions(m), 1.0_dp / w(m), ierr))
-    PetscCallA(VecDestroy(turned, ierr))
     end associate
   end subroutine derive_strain_solution
 
@@ -350,23 +339,34 @@ contains
     integer, intent(in) :: motion
     Vec, intent(in) :: source
     Vec, intent(inout) :: derived
-    Vec :: turned
+    PetscErrorCode :: ierr
+    call turn_solution(symmetry%transform(:, :, motion), symmetry%permute(motion), source, derived)
+    PetscCallA(VecScale(derived, real(symmetry%sign(motion), dp), ierr))
+  end subroutine derive_solution
+
+  !> Collective. turned = S_Q source: each bead's multipoles turned by D_Q (`transform`), then moved
+  !> to its image bead (`permute`, the scatter of find_motion_symmetry).
+  subroutine turn_solution(transform, permute, source, turned)
+    real(dp), intent(in) :: transform(:, :)
+    VecScatter, intent(in) :: permute
+    Vec, intent(in) :: source
+    Vec, intent(in) :: turned   ! a PETSc handle: the vector behind it is written
+    Vec :: by_bead
     PetscScalar, pointer :: values(:)
     PetscErrorCode :: ierr
     integer :: nb, i
-    nb = size(symmetry%transform, 1)
-    PetscCallA(VecDuplicate(source, turned, ierr))
-    PetscCallA(VecCopy(source, turned, ierr))
-    PetscCallA(VecGetArrayF90(turned, values, ierr))
+    nb = size(transform, 1)
+    PetscCallA(VecDuplicate(source, by_bead, ierr))
+    PetscCallA(VecCopy(source, by_bead, ierr))
+    PetscCallA(VecGetArrayF90(by_bead, values, ierr))
     do i = 1, size(values) / nb
-      values(nb * (i - 1) + 1:nb * i) = matmul(symmetry%transform(:, :, motion), values(nb * (i - 1) + 1:nb * i))
+      values(nb * (i - 1) + 1:nb * i) = matmul(transform, values(nb * (i - 1) + 1:nb * i))
     end do
-    PetscCallA(VecRestoreArrayF90(turned, values, ierr))
-    PetscCallA(VecScatterBegin(symmetry%permute(motion), turned, derived, INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCallA(VecScatterEnd(symmetry%permute(motion), turned, derived, INSERT_VALUES, SCATTER_FORWARD, ierr))
-    PetscCallA(VecScale(derived, real(symmetry%sign(motion), dp), ierr))
-    PetscCallA(VecDestroy(turned, ierr))
-  end subroutine derive_solution
+    PetscCallA(VecRestoreArrayF90(by_bead, values, ierr))
+    PetscCallA(VecScatterBegin(permute, by_bead, turned, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecScatterEnd(permute, by_bead, turned, INSERT_VALUES, SCATTER_FORWARD, ierr))
+    PetscCallA(VecDestroy(by_bead, ierr))
+  end subroutine turn_solution
 
   subroutine destroy_motion_symmetry(symmetry)
     type(motion_symmetry_t), intent(inout) :: symmetry

@@ -662,7 +662,6 @@ contains
     type(strain_statistics_t), intent(out) :: stats
     Vec :: c(6 + n_strain_modes), q(6 + n_strain_modes), r(6 + n_strain_modes)
     PetscErrorCode :: ierr
-    PetscReal :: rhs_norm, residual_norm
     real(dp) :: plain(6 + n_strain_modes, 6 + n_strain_modes), correction(6 + n_strain_modes, 6 + n_strain_modes)
     integer :: k, m, n
     associate (rhs => solver%strain_rhs, solution => solver%strain_solution, residual => solver%strain_residual)
@@ -675,10 +674,7 @@ contains
       end do
     end if
     do k = 1, n_strain_modes
-      PetscCallA(VecAYPX(residual(k), -1.0_dp, rhs(k), ierr))
-      PetscCallA(VecNorm(residual(k), NORM_2, residual_norm, ierr))
-      PetscCallA(VecNorm(rhs(k), NORM_2, rhs_norm, ierr))
-      solver%strain_stats%true_relative_residual(k) = residual_norm / rhs_norm
+      solver%strain_stats%true_relative_residual(k) = strain_residual_from_product(solver, k)
     end do
     c = [solver%rhs, rhs]
     q = [solver%solution, solution]
@@ -744,13 +740,21 @@ contains
     type(motion_solver_t), intent(inout) :: solver
     integer, intent(in) :: k
     PetscErrorCode :: ierr
-    PetscReal :: rhs_norm, residual_norm
     PetscCallA(MatMult(solver%matrix, solver%strain_solution(k), solver%strain_residual(k), ierr))
+    relative = strain_residual_from_product(solver, k)
+  end function strain_true_residual
+
+  !> Collective. As strain_true_residual, with A q_k already in strain_residual(k) (a batched product).
+  real(dp) function strain_residual_from_product(solver, k) result(relative)
+    type(motion_solver_t), intent(inout) :: solver
+    integer, intent(in) :: k
+    PetscErrorCode :: ierr
+    PetscReal :: rhs_norm, residual_norm
     PetscCallA(VecAYPX(solver%strain_residual(k), -1.0_dp, solver%strain_rhs(k), ierr))
     PetscCallA(VecNorm(solver%strain_residual(k), NORM_2, residual_norm, ierr))
     PetscCallA(VecNorm(solver%strain_rhs(k), NORM_2, rhs_norm, ierr))
     relative = residual_norm / rhs_norm
-  end function strain_true_residual
+  end function strain_residual_from_product
 
   !> A strain solve has stopped (its iterations, KSPConvergedReason, B A's extreme eigenvalues).
   subroutine record_strain_solve(solver, k, its, why, largest, smallest)
