@@ -17,7 +17,7 @@ module beadmob_continuum_job
   use beadmob_input_config, only: run_config_t, effective_input_text, is_set
   use beadmob_checkpoint_file, only: fnv1a_hex
   use beadmob_bead_model, only: bead_model_t
-  use beadmob_lattice_fill, only: offset_sequence
+  use beadmob_lattice_fill, only: offset_sequence, turn_sequence
   use beadmob_shape_catalog, only: build_bead_model, read_mesh_once, triangle_mesh_t
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
@@ -28,7 +28,7 @@ module beadmob_continuum_job
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
   use beadmob_job_plan, only: job_plan_t
   use beadmob_friction_job, only: friction_of_plan, friction_result_t
-  use beadmob_linear_flow, only: n_strain_modes
+  use beadmob_linear_flow, only: n_strain_modes, strain_rotation
   use beadmob_flow_response, only: free_body_response
   use beadmob_result_file, only: write_result_file
   use beadmob_job_planning, only: plan_friction_job
@@ -62,6 +62,14 @@ module beadmob_continuum_job
     type(body_moments_t) :: moments              ! in the shape's unit
   end type continuum_sample_t
 
+  !> How a sample's lattice meets the body besides its offset: with &continuum turned_lattices
+  !> (meshes), the lattice of offset index j >= 1 has the axes turn_sequence(j) (columns, in the
+  !> input's frame) and the body turns about `pivot` (its centroid, shape units) to meet it.
+  type :: lattice_turns_t
+    logical :: enabled = .false.
+    real(dp) :: pivot(3) = 0.0_dp
+  end type lattice_turns_t
+
   !> What the job knows of its levels before solving: level k has bead diameter
   !> bead_diameter * 2**(k/3), k from `finest` to `coarsest` (survey_body); per level the beads at
   !> the first offset and the dry run's estimate of a sample (s), -1 until surveyed; the pilot's
@@ -69,6 +77,7 @@ module beadmob_continuum_job
   type :: ladder_survey_t
     integer :: user_beads = 0, coarsest = 0, finest = 0
     real(dp) :: thinnest = 0.0_dp, calibration = 1.0_dp
+    type(lattice_turns_t) :: turns
     integer, allocatable :: beads(:)
     real(dp), allocatable :: seconds(:)
   end type ladder_survey_t
@@ -151,9 +160,10 @@ contains
     ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90).
     allocate (volumes(config%continuum%moment_fills))
     do fill = 1, config%continuum%moment_fills
-      call build_at(ctx, config, mesh, diameters(size(diameters)), fill, model, err)
+      call build_at(ctx, config, mesh, survey%turns, diameters(size(diameters)), fill, model, err)
       if (err%failed) return
-      call accumulate(body, moments_of_beads(model%centres, diameters(size(diameters))), config%continuum%moment_fills)
+      call accumulate(body, moments_in_input_frame(model%centres, diameters(size(diameters)), survey%turns, fill), &
+                      config%continuum%moment_fills)
       volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
     end do
 
@@ -181,14 +191,14 @@ contains
     ! The reference model carries the geometry and the body frame of the coefficients: the finest
     ! level on the lattice through the body's origin (offset 0), which keeps the shape's mirror
     ! planes (an offset breaks them, and the paper's frame is chosen by them: body_frame.f90).
-    call build_at(ctx, config, mesh, diameters(size(diameters)), 0, model, err)
+    call build_at(ctx, config, mesh, survey%turns, diameters(size(diameters)), 0, model, err)
     if (err%failed) return
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
     result%reference_length = config%shape%reference_length
     if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
-    call continuum_values(config, diameters, samples, body, volumes, frame%axes, result, err)
+    call continuum_values(config, survey%turns, diameters, samples, body, volumes, frame%axes, result, err)
     if (err%failed) return
     result%estimated_seconds = estimated_seconds
     result%calibration = survey%calibration
@@ -211,10 +221,10 @@ contains
       type(body_frame_t) :: sample_frame
       type(job_plan_t) :: plan
       type(friction_result_t) :: job_result
-      real(dp) :: start
+      real(dp) :: start, turn(6 + n_strain_modes, 6 + n_strain_modes)
       start = MPI_Wtime()
       sample_config = config
-      call build_at(ctx, config, mesh, d, j, sample_model, err, sample_config)
+      call build_at(ctx, config, mesh, survey%turns, d, j, sample_model, err, sample_config)
       if (.not. err%failed .and. size(sample_model%centres, 2) < 2) &
         call raise(err, '&continuum: ' // str(size(sample_model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
                    ': the shape is too small for this resolution')
@@ -239,9 +249,12 @@ contains
       sample%beads = size(sample_model%centres, 2)
       sample%bead_diameter = d
       sample%offset = sample_config%shape%lattice_offset
-      sample%friction = job_result%friction
-      if (job_result%flow) sample%grand = job_result%grand_resistance
-      sample%moments = moments_of_beads(sample_model%centres, d)
+      ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
+      ! friction_job.F90 turns its solve axes back).
+      turn = input_frame_turn(survey%turns, j)
+      sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
+      if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
+      sample%moments = moments_in_input_frame(sample_model%centres, d, survey%turns, j)
       sample%iterations = sum(max(job_result%solves%iterations, 0))
       sample%converged = merge(1, 0, all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0))
       sample%residual = maxval(job_result%solves%true_relative_residual)
@@ -271,26 +284,41 @@ contains
                  'ordinary run, around which the ladder is chosen')
     else if (any(config%shape%lattice_offset /= 0.0_dp)) then
       call raise(err, '&continuum chooses the lattice offsets itself: leave &shape lattice_offset out')
+    else if (config%continuum%turned_lattices .and. config%shape%name /= 'mesh') then
+      call raise(err, "&continuum turned_lattices turns the body against the lattice, which beadmob does for " // &
+                 "meshes only, not for shape '" // trim(config%shape%name) // "' (leave it out, or give the body as a mesh)")
     end if
   end subroutine check_continuum_input
 
   !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
-  !> (offset_sequence: well spread over the unit cell; j = 0: no offset); `used` gets the config.
+  !> (offset_sequence: well spread over the unit cell; j = 0: no offset) and, with turns, of
+  !> axes turn_sequence(j) (j >= 1): the centres are then in the lattice's frame
+  !> (moments_in_input_frame, input_frame_turn turn back); `used` gets the config.
   !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes.
-  subroutine build_at(ctx, config, mesh, d, j, model, err, used)
+  subroutine build_at(ctx, config, mesh, turns, d, j, model, err, used)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
+    type(lattice_turns_t), intent(in) :: turns
     real(dp), intent(in) :: d
     integer, intent(in) :: j
     type(bead_model_t), intent(out) :: model
     type(error_t), intent(inout) :: err
     type(run_config_t), intent(inout), optional :: used
     type(run_config_t) :: c
+    type(triangle_mesh_t) :: turned
+    real(dp) :: axes(3, 3)
     c = config
     c%shape%bead_diameter = d
     c%shape%lattice_offset = offset_sequence(j)
-    if (config%shape%name == 'mesh') then
+    if (config%shape%name == 'mesh' .and. turns%enabled .and. j >= 1) then
+      ! The body in the lattice's frame: x' = pivot + Q^T (x - pivot) (rank 0 holds the mesh).
+      axes = turn_sequence(j)
+      turned%triangles = mesh%triangles
+      turned%vertices = spread(turns%pivot, 2, size(mesh%vertices, 2)) + &
+                        matmul(transpose(axes), mesh%vertices - spread(turns%pivot, 2, size(mesh%vertices, 2)))
+      call build_bead_model(ctx, c%shape, model, err, turned)
+    else if (config%shape%name == 'mesh') then
       call build_bead_model(ctx, c%shape, model, err, mesh)
     else
       call build_bead_model(ctx, c%shape, model, err)
@@ -298,6 +326,50 @@ contains
     call agree_on_error(ctx, err)
     if (present(used)) used = c
   end subroutine build_at
+
+  !> The lattice axes of offset index j (columns, input frame): turn_sequence(j) with turns, else
+  !> the input's own.
+  pure function lattice_axes(turns, j) result(axes)
+    type(lattice_turns_t), intent(in) :: turns
+    integer, intent(in) :: j
+    real(dp) :: axes(3, 3)
+    integer :: a
+    axes = 0.0_dp
+    do a = 1, 3
+      axes(a, a) = 1.0_dp
+    end do
+    if (turns%enabled .and. j >= 1) axes = turn_sequence(j)
+  end function lattice_axes
+
+  !> T = diag(Q, Q, D(Q)) (Q = lattice_axes(turns, j), D: strain_rotation): a sample's friction
+  !> or grand resistance K' in the lattice's frame is T K' T^T in the input's.
+  pure function input_frame_turn(turns, j) result(turn)
+    type(lattice_turns_t), intent(in) :: turns
+    integer, intent(in) :: j
+    real(dp) :: turn(6 + n_strain_modes, 6 + n_strain_modes), axes(3, 3)
+    axes = lattice_axes(turns, j)
+    turn = 0.0_dp
+    turn(1:3, 1:3) = axes
+    turn(4:6, 4:6) = axes
+    turn(7:, 7:) = strain_rotation(axes)
+  end function input_frame_turn
+
+  !> The moments (shape units, input frame) of beads at `centres` (d, in the frame of lattice j:
+  !> build_at), turned back about the pivot: x = pivot + Q (x' - pivot).
+  pure function moments_in_input_frame(centres, d, turns, j) result(moments)
+    real(dp), intent(in) :: centres(:, :), d
+    type(lattice_turns_t), intent(in) :: turns
+    integer, intent(in) :: j
+    type(body_moments_t) :: moments
+    real(dp) :: pivot(3)
+    if (.not. (turns%enabled .and. j >= 1)) then
+      moments = moments_of_beads(centres, d)
+    else
+      pivot = turns%pivot / d
+      moments = moments_of_beads(spread(pivot, 2, size(centres, 2)) + &
+                                 matmul(lattice_axes(turns, j), centres - spread(pivot, 2, size(centres, 2))), d)
+    end if
+  end function moments_in_input_frame
 
   !> Level k's bead diameter: the user's bead_diameter * 2**(k/3) (bead counts a factor 2 apart).
   pure real(dp) function level_diameter(config, k)
@@ -321,18 +393,20 @@ contains
     type(error_t), intent(inout) :: err
     type(bead_model_t) :: model
     type(body_moments_t) :: moments
-    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(13), beads
+    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(16), beads
     integer :: ierr
     d = config%shape%bead_diameter
     if (config%shape%name == 'mesh') then
       if (ctx%rank == 0) then
+        ! About the first vertex (far-off coordinates lose no digits); the centroid is the pivot of turns.
         moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
-        numbers = [moments%volume, moments%first, reshape(moments%second, [9])]
+        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid()]
       end if
-      call MPI_Bcast(numbers, 13, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      call MPI_Bcast(numbers, 16, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
+      survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16))
     else
-      call build_at(ctx, config, mesh, d, 1, model, err)
+      call build_at(ctx, config, mesh, survey%turns, d, 1, model, err)
       if (err%failed) return
       moments = moments_of_beads(model%centres, d)
     end if
@@ -372,7 +446,7 @@ contains
     type(job_plan_t) :: plan
     if (survey%seconds(k) >= 0.0_dp) return
     ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-    call build_at(ctx, config, mesh, level_diameter(config, k), 1, model, err, c)
+    call build_at(ctx, config, mesh, survey%turns, level_diameter(config, k), 1, model, err, c)
     if (err%failed) return
     survey%beads(k) = size(model%centres, 2)
     survey%seconds(k) = 0.0_dp
@@ -473,7 +547,7 @@ contains
     diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
     estimated_seconds = 0.0_dp
     do k = 1, levels
-      call build_at(ctx, config, mesh, diameters(k), 1, model, err, c)
+      call build_at(ctx, config, mesh, survey%turns, diameters(k), 1, model, err, c)
       if (err%failed) return
       if (k == 1 .and. size(model%centres, 2) < minimum_coarsest_beads) then
         call raise(err, '&continuum: finest_bead_diameter = ' // diameter_text(finest) // ' puts ' // str(size(model%centres, 2)) // &
@@ -574,8 +648,9 @@ contains
   end function seconds_text
 
   !> The corrected samples, the level means and the extrapolation (docs/theory.md T18).
-  subroutine continuum_values(config, diameters, samples, body, volumes, axes, result, err)
+  subroutine continuum_values(config, turns, diameters, samples, body, volumes, axes, result, err)
     type(run_config_t), intent(in) :: config
+    type(lattice_turns_t), intent(in) :: turns
     real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3)
     type(continuum_sample_t), intent(in) :: samples(:)
     type(body_moments_t), intent(in) :: body
@@ -606,7 +681,9 @@ contains
     allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
     allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
-    allocate (result%sample_moments(13, n))
+    allocate (result%sample_moments(13, n), result%sample_lattice_axes(9, n))
+    result%turned_lattices = turns%enabled
+    result%lattice_pivot = turns%pivot
     result%flow = config%hydrodynamics%flow
     if (result%flow) allocate (result%sample_velocity_per_strain(6 * n_strain_modes, n), &
                                result%sample_stresslet_per_strain(n_strain_modes**2, n))
@@ -617,6 +694,7 @@ contains
         result%sample_iterations(s) = p%iterations
         result%sample_converged(s) = p%converged
         result%sample_offset(:, s) = p%offset
+        result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
         result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)

@@ -8,7 +8,8 @@ module beadmob_lattice_fill
   use beadmob_resources, only: available_memory_bytes
   implicit none
   private
-  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift, offset_sequence
+  public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift, offset_sequence, &
+            turn_sequence
 
   !> Relative tolerance of the inside tests of the shape builders.
   real(dp), parameter :: boundary_tolerance = 1.0e-9_dp
@@ -73,21 +74,42 @@ contains
     integer, intent(in) :: j
     real(dp) :: offset(3)
     offset = [van_der_corput(j, 2), van_der_corput(j, 3), van_der_corput(j, 5)]
-  contains
-    pure real(dp) function van_der_corput(index, base)
-      integer, intent(in) :: index, base
-      real(dp) :: f
-      integer :: i
-      van_der_corput = 0.0_dp
-      f = 1.0_dp
-      i = index
-      do while (i > 0)
-        f = f / base
-        van_der_corput = van_der_corput + f * modulo(i, base)
-        i = i / base
-      end do
-    end function van_der_corput
   end function offset_sequence
+
+  !> Lattice turn number j >= 1 of a well spread sequence over the rotations: the columns are
+  !> the turned lattice's axes. Uniform rotations from three uniform numbers (Shoemake, Graphics
+  !> Gems III, 1992: the unit quaternion (sqrt(1-u1) sin 2 pi u2, sqrt(1-u1) cos 2 pi u2,
+  !> sqrt(u1) sin 2 pi u3, sqrt(u1) cos 2 pi u3)), the numbers from the Halton sequence in bases
+  !> 7, 11, 13 (none of the offsets' bases, so turns and offsets do not go in step).
+  pure function turn_sequence(j) result(axes)
+    integer, intent(in) :: j
+    real(dp) :: axes(3, 3)
+    real(dp), parameter :: two_pi = 6.283185307179586_dp
+    real(dp) :: u(3), w, x, y, z
+    u = [van_der_corput(j, 7), van_der_corput(j, 11), van_der_corput(j, 13)]
+    x = sqrt(1.0_dp - u(1)) * sin(two_pi * u(2))
+    y = sqrt(1.0_dp - u(1)) * cos(two_pi * u(2))
+    z = sqrt(u(1)) * sin(two_pi * u(3))
+    w = sqrt(u(1)) * cos(two_pi * u(3))
+    axes = reshape([1 - 2 * (y**2 + z**2), 2 * (x * y + w * z), 2 * (x * z - w * y), &
+                    2 * (x * y - w * z), 1 - 2 * (x**2 + z**2), 2 * (y * z + w * x), &
+                    2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x**2 + y**2)], [3, 3])
+  end function turn_sequence
+
+  !> The radical inverse of index in base (van der Corput): its digits mirrored about the point.
+  pure real(dp) function van_der_corput(index, base)
+    integer, intent(in) :: index, base
+    real(dp) :: f
+    integer :: i
+    van_der_corput = 0.0_dp
+    f = 1.0_dp
+    i = index
+    do while (i > 0)
+      f = f / base
+      van_der_corput = van_der_corput + f * modulo(i, base)
+      i = i / base
+    end do
+  end function van_der_corput
 
   !> buffer(3, n) for the n = product(sites) candidate lattice nodes of a shape builder, refused
   !> with one message (never a crash) when n exceeds the bead index range (default integers) or

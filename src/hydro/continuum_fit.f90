@@ -43,6 +43,12 @@ module beadmob_continuum_fit
     !> Per sample: the volume, first (3) and second (9, column-major) moments of its beads (shape
     !> units: body_moments_t), from which its correction was made.
     real(dp), allocatable :: sample_moments(:, :)
+    !> Per sample: its lattice's axes (9: the columns, input frame; the identity unless
+    !> turned_lattices; the body turns about lattice_pivot, its centroid). Its friction and moments
+    !> above are turned back into the input's frame.
+    logical :: turned_lattices = .false.
+    real(dp) :: lattice_pivot(3) = 0.0_dp
+    real(dp), allocatable :: sample_lattice_axes(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.
     real(dp), allocatable :: level_mobility(:, :), level_mobility_error(:, :)
     real(dp), allocatable :: level_coefficients(:, :), level_coefficient_error(:, :)

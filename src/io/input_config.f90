@@ -58,6 +58,9 @@ module beadmob_input_config
     integer :: moment_fills = 32
     !> The finest level's bead diameter (shape units) instead of the budget's choice.
     real(dp) :: finest_bead_diameter = unset_real
+    !> Meshes: every sample (and moment fill) on a lattice turned by its own rotation as well as
+    !> shifted, so no face of the body stays along the lattice (docs/theory.md T18).
+    logical :: turned_lattices = .false.
   end type continuum_settings_t
 
   type :: run_config_t
@@ -134,8 +137,9 @@ contains
     type(error_t), intent(inout) :: err
     real(dp) :: time_budget, finest_bead_diameter
     integer :: levels, offsets, moment_fills, status
+    logical :: turned_lattices
     character(len=512) :: message
-    namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter
+    namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -144,6 +148,7 @@ contains
     offsets = settings%offsets
     moment_fills = settings%moment_fills
     finest_bead_diameter = settings%finest_bead_diameter
+    turned_lattices = settings%turned_lattices
     read (lines, nml=continuum, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'continuum', message))
@@ -164,7 +169,8 @@ contains
     end if
     if (err%failed) return
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
-                                    moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter)
+                                    moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
+                                    turned_lattices=turned_lattices)
   end subroutine read_continuum_group
 
   subroutine read_run_group(lines, source, config, err)
@@ -531,7 +537,8 @@ contains
       text = text // '&continuum' // new_line('a') // trim(line) // new_line('a') // &
              '  levels = ' // str(config%continuum%levels) // new_line('a') // &
              '  offsets = ' // str(config%continuum%offsets) // new_line('a') // &
-             '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a')
+             '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a') // &
+             '  turned_lattices = ' // merge('.true. ', '.false.', config%continuum%turned_lattices) // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

@@ -16,7 +16,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
 3. A checkpoint of another input is not used ("starting over"; seen by a dry run).
 4. Refused with a message and a non-zero exit: a bead file (not a filled shape), no bead_diameter,
    levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits, a
-   finest_bead_diameter whose coarsest level would hold fewer than 100 beads.
+   finest_bead_diameter whose coarsest level would hold fewer than 100 beads, turned_lattices for
+   an analytic shape (beadmob turns meshes only).
 5. --estimate prints the ladder and writes nothing.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes."""
@@ -155,6 +156,7 @@ def main(beadmob, mpiexec, ranks, workdir):
          "accuracy target"),
         (SPHERE + "&continuum time_budget = 0.01 /\n", "fits the time budget"),
         (SPHERE + "&continuum levels = 4, finest_bead_diameter = 0.5 /\n", "levels of this body needs finest_bead_diameter <="),
+        (SPHERE + "&continuum turned_lattices = .true. /\n", "for meshes only, not for shape 'sphere'"),
     ]
     for body, expected in refusals:
         nml = write_input(workdir, "refused.nml", "refused.h5", body)

@@ -21,7 +21,14 @@ every entry of its mobility is generic.
    with the body). The check can fail: R M R^T differs from M itself by more than the bars (checked), so a
    job that ignored the turn would be caught.
 3. A bead_diameter too coarse for any level (the body below two beads) is refused by name before
-   any fill of a level."""
+   any fill of a level.
+4. Turned lattices (&continuum turned_lattices, 2 ranks), on the far-off mesh: every sample's
+   lattice axes are a proper rotation, each offset's its own, and the aligned job's are the
+   identity; the pivot is the mesh's polyhedral centroid (computed here with numpy); one sample,
+   rebuilt as an ordinary run of the mesh turned by Q^T about the pivot on that sample's offset and
+   bead diameter, has the same beads and, turned back (diag(Q, Q) K diag(Q, Q)^T), the sample's
+   friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py); the
+   turned job's continuum mobility agrees with the aligned job's within the two bars."""
 import re
 import subprocess
 import sys
@@ -33,6 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from check_mesh_shapes import grid_surface, orient_outward  # noqa: E402
 from checklist import check, failures  # noqa: E402
+import solver_promise  # noqa: E402
 
 SEMI_AXES = np.array([1.3, 1.0, 0.7])
 SHIFT = np.array([1000.3, -2000.1, 500.7])
@@ -98,6 +106,70 @@ def turned_within_bars(turn, results):
           f"{np.max(np.abs(expected - m) / (bar_turned + bar_m)):.1f})")
 
 
+def polyhedral_centroid(triangles):
+    """The solid's centroid from signed tetrahedra on its first vertex (no digits lost far off)."""
+    a, b, c = (triangles[:, k] - triangles[0, 0] for k in range(3))
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6
+    return triangles[0, 0] + (volume[:, None] * (a + b + c) / 4).sum(axis=0) / volume.sum()
+
+
+def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned):
+    """Section 4: the continuum job on turned lattices, one sample rebuilt by an ordinary run."""
+    done = job(beadmob, mpiexec, ranks, workdir, "lattices", "far.obj", 0.125, ladder + ", turned_lattices = .true.",
+               "-quiet")
+    if done.returncode != 0:
+        sys.exit(f"the continuum job on turned lattices failed:\n{done.stdout}\n{done.stderr}")
+    with h5py.File(workdir / "made.h5", "r") as f:
+        check(int(f["continuum"].attrs["turned_lattices"]) == 0
+              and np.allclose(f["continuum/sample_lattice_axes"][()], np.eye(3).reshape(-1), atol=0),
+              "an aligned job's samples have the input's axes")
+    with h5py.File(workdir / "lattices.h5", "r") as f:
+        c = f["continuum"]
+        axes = [row.reshape(3, 3, order="F") for row in c["sample_lattice_axes"][()]]
+        offset_index = np.arange(len(axes)) % 2   # the samples go level by level, offsets in order
+        sample = dict(level=int(c.attrs["sample_level"][-1]), beads=int(c.attrs["sample_beads"][-1]),
+                      offset=c["sample_offset"][-1], friction=c["sample_friction"][-1].reshape(6, 6, order="F"))
+        d = c["bead_diameters"][sample["level"] - 1]
+        pivot = c["lattice_pivot"][()]
+        turned = (c["mobility"][()], c["mobility_error"][()])
+        check(int(c.attrs["turned_lattices"]) == 1, "a turned job says so (/continuum turned_lattices = 1)")
+    check(all(np.allclose(q.T @ q, np.eye(3), atol=1e-12) and np.linalg.det(q) > 0 for q in axes),
+          "every sample's lattice axes are a proper rotation")
+    check(not np.allclose(axes[0], axes[1], atol=1e-3) and not np.allclose(axes[0], np.eye(3), atol=1e-3)
+          and all(np.allclose(q, axes[k % 2], atol=0) for k, q in zip(offset_index, axes)),
+          "each offset index has its own turn, the same on every level")
+    exact_pivot = polyhedral_centroid(triangles)
+    check(np.allclose(pivot, exact_pivot, rtol=0, atol=1e-9 * np.abs(exact_pivot).max()),
+          f"the pivot is the mesh's centroid ({pivot} against {exact_pivot})")
+    # The last sample rebuilt: the mesh turned by Q^T about the pivot, on the sample's lattice.
+    q = axes[-1]
+    write_obj(workdir / "sample.obj", pivot + (triangles - pivot) @ q)
+    nml = workdir / "sample.nml"
+    nml.write_text("&run output = 'sample.h5' /\n&shape name = 'mesh', file = 'sample.obj', "
+                   f"bead_diameter = {float(d)!r}, lattice_offset = {', '.join(repr(float(x)) for x in sample['offset'])} /\n"
+                   "&hydrodynamics /\n")
+    (workdir / "sample.h5").unlink(missing_ok=True)
+    run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir, capture_output=True,
+                         text=True)
+    if run.returncode != 0:
+        sys.exit(f"the ordinary run of the turned sample failed:\n{run.stdout}\n{run.stderr}")
+    with h5py.File(workdir / "sample.h5", "r") as f:
+        beads = int(f["geometry"].attrs["n_beads"])
+        h = f["hydrodynamics"]
+        friction, bound = h["friction"][()], solver_promise.bound(h)
+    check(beads == sample["beads"], f"the rebuilt sample has the sample's beads ({beads} against {sample['beads']})")
+    big = np.kron(np.eye(2), q)
+    allowed = solver_promise.allowed_difference([bound, bound], friction)
+    difference = np.abs(big @ friction @ big.T - sample["friction"])
+    check(bound is not None and np.all(difference <= allowed),
+          f"the sample's friction is the turned ordinary run's, turned back (largest |difference| / allowed "
+          f"{np.max(difference / allowed):.2g})")
+    (m, bar_m), (t, bar_t) = aligned, turned
+    check(np.all(np.abs(t - m) <= bar_m + bar_t),
+          f"turned and aligned lattices: the same mobility within the two bars (largest |difference| / bars "
+          f"{np.max(np.abs(t - m) / (bar_m + bar_t)):.2f})")
+
+
 def main(beadmob, mpiexec, ranks, workdir):
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
@@ -140,7 +212,7 @@ def main(beadmob, mpiexec, ranks, workdir):
             results[name] = (c["mobility"][()], c["mobility_error"][()])
     if results:
         turned_within_bars(turn, results)
-
+        turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, body + SHIFT, results["made"])
 
     # 3. Too coarse for any level.
     done = job(beadmob, mpiexec, ranks, workdir, "coarse", "made.obj", 3.0, "")
