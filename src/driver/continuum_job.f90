@@ -18,6 +18,7 @@ module beadmob_continuum_job
   use beadmob_checkpoint_file, only: fnv1a_hex
   use beadmob_bead_model, only: bead_model_t
   use beadmob_lattice_fill, only: offset_sequence, turn_sequence
+  use beadmob_vector_algebra, only: cross
   use beadmob_shape_catalog, only: build_bead_model, read_mesh_once, triangle_mesh_t
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
@@ -63,11 +64,14 @@ module beadmob_continuum_job
   end type continuum_sample_t
 
   !> How a sample's lattice meets the body besides its offset: with &continuum turned_lattices
-  !> (meshes), the lattice of offset index j >= 1 has the axes turn_sequence(j) (columns, in the
-  !> input's frame) and the body turns about `pivot` (its centroid, shape units) to meet it.
+  !> (meshes), the lattice of offset index j >= 1 has the axes base turn_sequence(j, max_angle)
+  !> (columns, in the input's frame): `base` is the input's axes or the body's principal axes,
+  !> whichever boxes the mesh tighter (a sample's FFT box is its cost), tilted by at most
+  !> max_angle (radians) so that no face stays along the lattice; the body turns about `pivot`
+  !> (its centroid, shape units) to meet it.
   type :: lattice_turns_t
     logical :: enabled = .false.
-    real(dp) :: pivot(3) = 0.0_dp
+    real(dp) :: pivot(3) = 0.0_dp, base(3, 3) = 0.0_dp, max_angle = 0.0_dp
   end type lattice_turns_t
 
   !> What the job knows of its levels before solving: level k has bead diameter
@@ -292,7 +296,7 @@ contains
 
   !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
   !> (offset_sequence: well spread over the unit cell; j = 0: no offset) and, with turns, of
-  !> axes turn_sequence(j) (j >= 1): the centres are then in the lattice's frame
+  !> axes lattice_axes(turns, j) (j >= 1): the centres are then in the lattice's frame
   !> (moments_in_input_frame, input_frame_turn turn back); `used` gets the config.
   !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes.
   subroutine build_at(ctx, config, mesh, turns, d, j, model, err, used)
@@ -313,7 +317,7 @@ contains
     c%shape%lattice_offset = offset_sequence(j)
     if (config%shape%name == 'mesh' .and. turns%enabled .and. j >= 1) then
       ! The body in the lattice's frame: x' = pivot + Q^T (x - pivot) (rank 0 holds the mesh).
-      axes = turn_sequence(j)
+      axes = lattice_axes(turns, j)
       turned%triangles = mesh%triangles
       turned%vertices = spread(turns%pivot, 2, size(mesh%vertices, 2)) + &
                         matmul(transpose(axes), mesh%vertices - spread(turns%pivot, 2, size(mesh%vertices, 2)))
@@ -327,8 +331,8 @@ contains
     if (present(used)) used = c
   end subroutine build_at
 
-  !> The lattice axes of offset index j (columns, input frame): turn_sequence(j) with turns, else
-  !> the input's own.
+  !> The lattice axes of offset index j (columns, input frame): the base axes tilted by
+  !> turn_sequence(j) with turns, else the input's own.
   pure function lattice_axes(turns, j) result(axes)
     type(lattice_turns_t), intent(in) :: turns
     integer, intent(in) :: j
@@ -338,7 +342,7 @@ contains
     do a = 1, 3
       axes(a, a) = 1.0_dp
     end do
-    if (turns%enabled .and. j >= 1) axes = turn_sequence(j)
+    if (turns%enabled .and. j >= 1) axes = matmul(turns%base, turn_sequence(j, turns%max_angle))
   end function lattice_axes
 
   !> T = diag(Q, Q, D(Q)) (Q = lattice_axes(turns, j), D: strain_rotation): a sample's friction
@@ -393,18 +397,22 @@ contains
     type(error_t), intent(inout) :: err
     type(bead_model_t) :: model
     type(body_moments_t) :: moments
-    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(16), beads
+    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(25), beads
+    type(error_t) :: no_axes
     integer :: ierr
     d = config%shape%bead_diameter
     if (config%shape%name == 'mesh') then
       if (ctx%rank == 0) then
         ! About the first vertex (far-off coordinates lose no digits); the centroid is the pivot of turns.
         moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
-        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid()]
+        call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
+        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid(), &
+                   reshape(tighter_box_axes(mesh%vertices, axes, .not. no_axes%failed), [9])]
       end if
-      call MPI_Bcast(numbers, 16, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
-      survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16))
+      survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
+                                     config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp)
     else
       call build_at(ctx, config, mesh, survey%turns, d, 1, model, err)
       if (err%failed) return
@@ -430,6 +438,30 @@ contains
     survey%beads = -1
     survey%seconds = -1.0_dp
   end subroutine survey_body
+
+  !> The axes (columns, a proper rotation) that box the vertices tighter: the input's, or the
+  !> principal axes `principal` when given (`use_principal`) and their bounding box is smaller.
+  pure function tighter_box_axes(vertices, principal, use_principal) result(axes)
+    real(dp), intent(in) :: vertices(:, :), principal(3, 3)
+    logical, intent(in) :: use_principal
+    real(dp) :: axes(3, 3), q(3, 3), low(3), high(3), x(3)
+    integer :: a, v
+    axes = 0.0_dp
+    do a = 1, 3
+      axes(a, a) = 1.0_dp
+    end do
+    if (.not. use_principal) return
+    q = principal
+    if (dot_product(q(:, 3), cross(q(:, 1), q(:, 2))) < 0.0_dp) q(:, 3) = -q(:, 3)
+    low = huge(1.0_dp)
+    high = -huge(1.0_dp)
+    do v = 1, size(vertices, 2)
+      x = matmul(vertices(:, v), q)   ! q^T v: the vertex in the principal frame
+      low = min(low, x)
+      high = max(high, x)
+    end do
+    if (product(high - low) < product(maxval(vertices, dim=2) - minval(vertices, dim=2))) axes = q
+  end function tighter_box_axes
 
   !> Collective. Level k surveyed once: its bead count at the first offset and the dry run's
   !> estimate of one sample (uncalibrated; 0 s below minimum_coarsest_beads, where no plan is

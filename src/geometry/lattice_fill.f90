@@ -6,6 +6,7 @@ module beadmob_lattice_fill
   use beadmob_errors, only: error_t, raise
   use beadmob_strings, only: str, str_approx
   use beadmob_resources, only: available_memory_bytes
+  use beadmob_vector_algebra, only: axis_angle_rotation
   implicit none
   private
   public :: lattice_nodes_inside, inside_test, boundary_tolerance, reserve_sites, lattice_shift, offset_sequence, &
@@ -76,24 +77,22 @@ contains
     offset = [van_der_corput(j, 2), van_der_corput(j, 3), van_der_corput(j, 5)]
   end function offset_sequence
 
-  !> Lattice turn number j >= 1 of a well spread sequence over the rotations: the columns are
-  !> the turned lattice's axes. Uniform rotations from three uniform numbers (Shoemake, Graphics
-  !> Gems III, 1992: the unit quaternion (sqrt(1-u1) sin 2 pi u2, sqrt(1-u1) cos 2 pi u2,
-  !> sqrt(u1) sin 2 pi u3, sqrt(u1) cos 2 pi u3)), the numbers from the Halton sequence in bases
-  !> 7, 11, 13 (none of the offsets' bases, so turns and offsets do not go in step).
-  pure function turn_sequence(j) result(axes)
+  !> Lattice turn number j >= 1 of a well spread sequence of rotations by at most max_angle
+  !> (radians, up to pi): the rotation vector uniform in the ball of that radius (axis uniform on
+  !> the sphere, angle max_angle u^(1/3)), u and the axis from the Halton sequence in bases 7,
+  !> 11, 13 (none of the offsets' bases, so turns and offsets do not go in step); the rotation
+  !> matrix by Rodrigues' formula (axis_angle_rotation).
+  pure function turn_sequence(j, max_angle) result(turn)
     integer, intent(in) :: j
-    real(dp) :: axes(3, 3)
+    real(dp), intent(in) :: max_angle
+    real(dp) :: turn(3, 3)
     real(dp), parameter :: two_pi = 6.283185307179586_dp
-    real(dp) :: u(3), w, x, y, z
-    u = [van_der_corput(j, 7), van_der_corput(j, 11), van_der_corput(j, 13)]
-    x = sqrt(1.0_dp - u(1)) * sin(two_pi * u(2))
-    y = sqrt(1.0_dp - u(1)) * cos(two_pi * u(2))
-    z = sqrt(u(1)) * sin(two_pi * u(3))
-    w = sqrt(u(1)) * cos(two_pi * u(3))
-    axes = reshape([1 - 2 * (y**2 + z**2), 2 * (x * y + w * z), 2 * (x * z - w * y), &
-                    2 * (x * y - w * z), 1 - 2 * (x**2 + z**2), 2 * (y * z + w * x), &
-                    2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x**2 + y**2)], [3, 3])
+    real(dp) :: axis(3), angle, z, phi
+    angle = max_angle * van_der_corput(j, 7)**(1.0_dp / 3.0_dp)
+    z = 1.0_dp - 2.0_dp * van_der_corput(j, 11)
+    phi = two_pi * van_der_corput(j, 13)
+    axis = [sqrt(max(0.0_dp, 1.0_dp - z**2)) * cos(phi), sqrt(max(0.0_dp, 1.0_dp - z**2)) * sin(phi), z]
+    turn = axis_angle_rotation(axis, angle)
   end function turn_sequence
 
   !> The radical inverse of index in base (van der Corput): its digits mirrored about the point.

@@ -58,9 +58,11 @@ module beadmob_input_config
     integer :: moment_fills = 32
     !> The finest level's bead diameter (shape units) instead of the budget's choice.
     real(dp) :: finest_bead_diameter = unset_real
-    !> Meshes: every sample (and moment fill) on a lattice turned by its own rotation as well as
-    !> shifted, so no face of the body stays along the lattice (docs/theory.md T18).
+    !> Meshes: every sample (and moment fill) on a lattice turned by its own rotation of at most
+    !> turn_angle (degrees) from the body's tighter-boxing axes, as well as shifted, so no face
+    !> of the body stays along the lattice (docs/theory.md T18).
     logical :: turned_lattices = .false.
+    real(dp) :: turn_angle = 15.0_dp
   end type continuum_settings_t
 
   type :: run_config_t
@@ -135,11 +137,12 @@ contains
     character(len=*), intent(in) :: lines(:), source
     type(continuum_settings_t), intent(inout) :: settings
     type(error_t), intent(inout) :: err
-    real(dp) :: time_budget, finest_bead_diameter
+    real(dp) :: time_budget, finest_bead_diameter, turn_angle
     integer :: levels, offsets, moment_fills, status
     logical :: turned_lattices
     character(len=512) :: message
-    namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices
+    namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices, &
+                         turn_angle
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -149,6 +152,7 @@ contains
     moment_fills = settings%moment_fills
     finest_bead_diameter = settings%finest_bead_diameter
     turned_lattices = settings%turned_lattices
+    turn_angle = settings%turn_angle
     read (lines, nml=continuum, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'continuum', message))
@@ -166,11 +170,13 @@ contains
     else if (is_set(finest_bead_diameter) .and. .not. (finest_bead_diameter > 0.0_dp .and. &
                                                        finest_bead_diameter < huge(1.0_dp))) then
       call raise(err, source // ': &continuum finest_bead_diameter must be positive, got ' // str(finest_bead_diameter))
+    else if (.not. (turn_angle > 0.0_dp .and. turn_angle <= 180.0_dp)) then
+      call raise(err, source // ': &continuum turn_angle must be in (0, 180] degrees, got ' // str(turn_angle))
     end if
     if (err%failed) return
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
                                     moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
-                                    turned_lattices=turned_lattices)
+                                    turned_lattices=turned_lattices, turn_angle=turn_angle)
   end subroutine read_continuum_group
 
   subroutine read_run_group(lines, source, config, err)
@@ -539,6 +545,8 @@ contains
              '  offsets = ' // str(config%continuum%offsets) // new_line('a') // &
              '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a') // &
              '  turned_lattices = ' // merge('.true. ', '.false.', config%continuum%turned_lattices) // new_line('a')
+      write (line, '(a, es23.16)') '  turn_angle = ', config%continuum%turn_angle
+      text = text // trim(line) // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

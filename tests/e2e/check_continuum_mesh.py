@@ -27,8 +27,11 @@ every entry of its mobility is generic.
    identity; the pivot is the mesh's polyhedral centroid (computed here with numpy); one sample,
    rebuilt as an ordinary run of the mesh turned by Q^T about the pivot on that sample's offset and
    bead diameter, has the same beads and, turned back (diag(Q, Q) K diag(Q, Q)^T), the sample's
-   friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py); the
-   turned job's continuum mobility agrees with the aligned job's within the two bars."""
+   friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py); both
+   are flow jobs, and the sample's grand resistance in the kept checkpoint is the ordinary run's
+   turned back by diag(Q, Q, D(Q)) (D: the strain modes' rotation, docs/theory.md T19, computed
+   here from the modes' definition) within the same bounds; the turned job's continuum mobility
+   agrees with the aligned job's within the two bars."""
 import re
 import subprocess
 import sys
@@ -71,10 +74,10 @@ def rotation(seed=7):
     return q if np.linalg.det(q) > 0 else -q
 
 
-def job(beadmob, mpiexec, ranks, workdir, name, mesh, bead_diameter, continuum, *options):
+def job(beadmob, mpiexec, ranks, workdir, name, mesh, bead_diameter, continuum, *options, hydrodynamics=""):
     nml = Path(workdir) / f"{name}.nml"
     nml.write_text(f"&run output = '{name}.h5' /\n&shape name = 'mesh', file = '{mesh}', "
-                   f"bead_diameter = {bead_diameter!r} /\n&hydrodynamics /\n&continuum {continuum} /\n")
+                   f"bead_diameter = {bead_diameter!r} /\n&hydrodynamics {hydrodynamics} /\n&continuum {continuum} /\n")
     (Path(workdir) / f"{name}.h5").unlink(missing_ok=True)
     (Path(workdir) / f"{name}.h5.continuum_checkpoint").unlink(missing_ok=True)
     return subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), *options], cwd=workdir,
@@ -106,6 +109,23 @@ def turned_within_bars(turn, results):
           f"{np.max(np.abs(expected - m) / (bar_turned + bar_m)):.1f})")
 
 
+def strain_modes():
+    """The five orthonormal traceless symmetric strain modes E_k (E_k : E_l = delta_kl) in beadmob's
+    order (src/multipole/linear_flow.f90): xy, xz, yz shears, (xx - yy) / sqrt 2, (2 zz - xx - yy) / sqrt 6."""
+    modes = np.zeros((5, 3, 3))
+    for k, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
+        modes[k, a, b] = modes[k, b, a] = 1 / np.sqrt(2)
+    modes[3] = np.diag([1, -1, 0]) / np.sqrt(2)
+    modes[4] = np.diag([-1, -1, 2]) / np.sqrt(6)
+    return modes
+
+
+def strain_rotation(q):
+    """D_kl = E_k : (Q E_l Q^T): a strain given in the frame of axes Q in the input's modes."""
+    modes = strain_modes()
+    return np.einsum("kab,lab->kl", modes, np.einsum("ac,lcd,bd->lab", q, modes, q))
+
+
 def polyhedral_centroid(triangles):
     """The solid's centroid from signed tetrahedra on its first vertex (no digits lost far off)."""
     a, b, c = (triangles[:, k] - triangles[0, 0] for k in range(3))
@@ -116,7 +136,7 @@ def polyhedral_centroid(triangles):
 def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned):
     """Section 4: the continuum job on turned lattices, one sample rebuilt by an ordinary run."""
     done = job(beadmob, mpiexec, ranks, workdir, "lattices", "far.obj", 0.125, ladder + ", turned_lattices = .true.",
-               "-quiet")
+               "-quiet", "-keep_checkpoint", hydrodynamics="flow = .true.")
     if done.returncode != 0:
         sys.exit(f"the continuum job on turned lattices failed:\n{done.stdout}\n{done.stderr}")
     with h5py.File(workdir / "made.h5", "r") as f:
@@ -147,7 +167,7 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     nml = workdir / "sample.nml"
     nml.write_text("&run output = 'sample.h5' /\n&shape name = 'mesh', file = 'sample.obj', "
                    f"bead_diameter = {float(d)!r}, lattice_offset = {', '.join(repr(float(x)) for x in sample['offset'])} /\n"
-                   "&hydrodynamics /\n")
+                   "&hydrodynamics flow = .true. /\n")
     (workdir / "sample.h5").unlink(missing_ok=True)
     run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir, capture_output=True,
                          text=True)
@@ -157,6 +177,7 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
         beads = int(f["geometry"].attrs["n_beads"])
         h = f["hydrodynamics"]
         friction, bound = h["friction"][()], solver_promise.bound(h)
+        grand = f["flow/grand_resistance"][()]
     check(beads == sample["beads"], f"the rebuilt sample has the sample's beads ({beads} against {sample['beads']})")
     big = np.kron(np.eye(2), q)
     allowed = solver_promise.allowed_difference([bound, bound], friction)
@@ -164,6 +185,17 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     check(bound is not None and np.all(difference <= allowed),
           f"the sample's friction is the turned ordinary run's, turned back (largest |difference| / allowed "
           f"{np.max(difference / allowed):.2g})")
+    # The checkpoint's last line: 60 numbers of the sample, then its 11 x 11 grand resistance (Fortran order).
+    last = (workdir / "lattices.h5.continuum_checkpoint").read_text().splitlines()[-1].split()
+    sample_grand = np.array([float(x) for x in last[60:]]).reshape(11, 11, order="F")
+    turn = np.zeros((11, 11))
+    turn[:6, :6] = big
+    turn[6:, 6:] = strain_rotation(q)
+    allowed = solver_promise.allowed_difference([bound, bound], grand)
+    difference = np.abs(turn @ grand @ turn.T - sample_grand)
+    check(np.all(difference <= allowed),
+          f"the sample's grand resistance is the turned ordinary run's, turned back by diag(Q, Q, D(Q)) (largest "
+          f"|difference| / allowed {np.max(difference / allowed):.2g})")
     (m, bar_m), (t, bar_t) = aligned, turned
     check(np.all(np.abs(t - m) <= bar_m + bar_t),
           f"turned and aligned lattices: the same mobility within the two bars (largest |difference| / bars "

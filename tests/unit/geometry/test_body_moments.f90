@@ -7,12 +7,15 @@
 !> moments_of_polyhedron on a box of sides 2, 3, 5 given as 12 triangles, turned and moved far
 !> off: volume 30, centroid the box's centre, central second moments per volume (s_i^2 / 12 on
 !> the box's axes: the exact integrals), to rounding.
+!> The continuum job's lattice turns (turn_sequence): each a proper rotation (Q^T Q = 1, det 1) by
+!> at most the angle asked (cos angle = (trace - 1) / 2), the 64 of a sequence all different and
+!> reaching near that angle, for a small angle and for any (pi).
 program test_body_moments
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_simple_shapes, only: build_spheroid
-  use beadmob_lattice_fill, only: offset_sequence
+  use beadmob_lattice_fill, only: offset_sequence, turn_sequence
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp), semi_axes(3) = [9.0_dp, 6.0_dp, 4.5_dp], d = 0.5_dp
@@ -44,6 +47,8 @@ program test_body_moments
   call check(suite, abs(abs(axes_found(3, 1)) - 1.0_dp) < 1.0e-6_dp .and. abs(abs(axes_found(1, 3)) - 1.0_dp) < 1.0e-6_dp, &
              'equivalent ellipsoid: its axes')
   call check_box_polyhedron()
+  call check_turns(15.0_dp * pi / 180.0_dp)
+  call check_turns(pi)
   one = body_moments_t()
   call equivalent_ellipsoid(one, 0.0_dp, semi_found, axes_found, err)
   call check(suite, err%failed, 'no volume: refused')
@@ -81,6 +86,36 @@ contains
     expected = matmul(turn, matmul(expected, transpose(turn)))
     call check(suite, maxval(abs(central - expected)) < 1.0e-11_dp, 'polyhedron: the box''s central second moments')
   end subroutine check_box_polyhedron
+
+  subroutine check_turns(max_angle)
+    real(dp), intent(in) :: max_angle
+    real(dp) :: q(3, 3, fills), identity(3, 3), angles(fills), closest
+    integer :: j, i
+    identity = 0.0_dp
+    do i = 1, 3
+      identity(i, i) = 1.0_dp
+    end do
+    closest = huge(1.0_dp)
+    do j = 1, fills
+      q(:, :, j) = turn_sequence(j, max_angle)
+      angles(j) = acos(max(-1.0_dp, min(1.0_dp, (q(1, 1, j) + q(2, 2, j) + q(3, 3, j) - 1.0_dp) / 2.0_dp)))
+      do i = 1, j - 1
+        closest = min(closest, maxval(abs(q(:, :, j) - q(:, :, i))))
+      end do
+    end do
+    call check(suite, all([(maxval(abs(matmul(transpose(q(:, :, j)), q(:, :, j)) - identity)) < 1.0e-13_dp, j = 1, fills)]) &
+               .and. all([(abs(determinant(q(:, :, j)) - 1.0_dp) < 1.0e-13_dp, j = 1, fills)]), &
+               'turns: proper rotations')
+    call check(suite, maxval(angles) <= max_angle * (1.0_dp + 1.0e-12_dp) .and. maxval(angles) > 0.85_dp * max_angle, &
+               'turns: by at most the angle asked, and near it')
+    call check(suite, closest > 1.0e-3_dp, 'turns: all different')
+  end subroutine check_turns
+
+  pure real(dp) function determinant(a)
+    real(dp), intent(in) :: a(3, 3)
+    determinant = a(1, 1) * (a(2, 2) * a(3, 3) - a(3, 2) * a(2, 3)) - a(1, 2) * (a(2, 1) * a(3, 3) - a(3, 1) * a(2, 3)) &
+                  + a(1, 3) * (a(2, 1) * a(3, 2) - a(3, 1) * a(2, 2))
+  end function determinant
 
   pure function rotation(axis, angle) result(r)
     real(dp), intent(in) :: axis(3), angle
