@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""coverage.py [--exe BUILD/beadmob] [--budget S] [--bodies KEY,...] [--forms analytic,mesh] [--keep DIR]
-[--reuse DIR] [--out FILE] [--list]: does the continuum job's error bar hold?
+"""coverage.py [--exe BUILD/beadmob] [--budget S] [--bodies KEY,...] [--forms analytic,mesh] [--continuum TEXT]
+[--keep DIR] [--reuse DIR] [--out FILE] [--list]: does the continuum job's error bar hold?
 
 Twelve bodies with exact mobilities, each a continuum job on 2 ranks with `&continuum time_budget =
 S /` (default 120 s; every other setting default: 7 levels x 4 offsets, 32 moment fills), in two
@@ -38,6 +38,9 @@ quadratic, the model spread and the volume term as beadmob does them
 diagonal values to `replay` below). For the analytic forms Q = 1 and the bar is the file's.
 `held`: |value - exact| <= bar. `bar / error`: the bar over the true error |value - exact|
 (the error bar's overestimate; below 1 a miss).
+
+--continuum TEXT adds settings to every job's &continuum group (e.g. `turned_lattices = .true.`, for
+the mesh form only: beadmob turns meshes only); they are in each job's meta.json.
 
 --keep DIR (default bench/continuum/coverage_runs): each job runs in DIR/<key>-<form>/ and stays
 there (job.nml, job.h5, job.log, body.stl, meta.json with the wall time, R and c); --reuse DIR
@@ -177,12 +180,12 @@ def build_version(exe):
     return subprocess.run([str(exe), "--version"], capture_output=True, text=True).stdout.strip()
 
 
-def solve(exe, body, index, form, budget, folder):
+def solve(exe, body, index, form, budget, folder, extra=""):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "meta.json").unlink(missing_ok=True)
     rotation, centre = np.eye(3), np.zeros(3)
     meta = {"body": body.key, "form": form, "budget": budget, "exe": str(exe), "source": build_version(exe),
-            "date": datetime.date.today().isoformat()}
+            "date": datetime.date.today().isoformat(), "continuum": extra}
     if form == "analytic":
         if body.semi_axes == (1, 1, 1):
             shape = f"&shape name = 'sphere', radius = 1, bead_diameter = {body.bead_diameter:g} /\n&hydrodynamics /\n"
@@ -197,7 +200,8 @@ def solve(exe, body, index, form, budget, folder):
     meta.update(rotation=rotation.tolist(), centre=centre.tolist())
     try:
         # -keep_checkpoint: the samples stay, so a later build's estimate reruns them in seconds.
-        _, wall = run(exe, shape + f"&continuum time_budget = {budget:g} /\n", folder, fatal=False,
+        _, wall = run(exe, shape + f"&continuum time_budget = {budget:g}{', ' + extra if extra else ''} /\n", folder,
+                      fatal=False,
                       options=("-keep_checkpoint",))
         meta["wall"] = wall
         meta.update(solve_record(folder / "job.h5"))
@@ -429,6 +433,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--exe", default=str(ROOT / "build" / "beadmob"))
     parser.add_argument("--budget", type=float, default=120.0)
+    parser.add_argument("--continuum", default="", help="settings added to every job's &continuum group")
     parser.add_argument("--bodies", default=",".join(body.key for body in BODIES))
     parser.add_argument("--forms", default=",".join(FORMS))
     parser.add_argument("--keep", default=str(Path(__file__).with_name("coverage_runs")))
@@ -458,7 +463,7 @@ def main():
             print(f"{body.key} {form}: " + ("no checkpoint kept" if meta is None else f"refit in {meta['refit_wall']:.0f} s"),
                   flush=True)
         if not arguments.reuse:
-            meta = solve(Path(arguments.exe).resolve(), body, i, form, arguments.budget, folder)
+            meta = solve(Path(arguments.exe).resolve(), body, i, form, arguments.budget, folder, arguments.continuum)
             print(f"{body.key} {form}: " + (f"failed: {meta['failed']}" if "failed" in meta else f"{meta['wall']:.0f} s"),
                   flush=True)
         rows.append(analyse(body, form, folder))
@@ -473,6 +478,7 @@ def main():
     text = (f"# Coverage of the continuum job's error bar\n\n"
             f"Written by `{command}` (2 ranks, this machine; jobs solved {', '.join(dates)} with the build of "
             f"{', '.join(sources)}; budgets {', '.join(f'{b:g}' for b in budgets)} s"
+            + "".join(sorted({f"; &continuum {m['continuum']}" for m in metas if m.get("continuum")}))
             + (f"; the extrapolations redone from the jobs' checkpoints (no solve) by the build of {', '.join(refits)}"
                if refits else "")
             + ").\n\n"

@@ -543,10 +543,12 @@ contains
       text = text // '&continuum' // new_line('a') // trim(line) // new_line('a') // &
              '  levels = ' // str(config%continuum%levels) // new_line('a') // &
              '  offsets = ' // str(config%continuum%offsets) // new_line('a') // &
-             '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a') // &
-             '  turned_lattices = ' // merge('.true. ', '.false.', config%continuum%turned_lattices) // new_line('a')
-      write (line, '(a, es23.16)') '  turn_angle = ', config%continuum%turn_angle
-      text = text // trim(line) // new_line('a')
+             '  moment_fills = ' // str(config%continuum%moment_fills) // new_line('a')
+      ! Only when on: an aligned job's text (and its checkpoint key) stays that of earlier builds.
+      if (config%continuum%turned_lattices) then
+        write (line, '(a, es23.16)') '  turn_angle = ', config%continuum%turn_angle
+        text = text // '  turned_lattices = .true. ' // new_line('a') // trim(line) // new_line('a')
+      end if
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

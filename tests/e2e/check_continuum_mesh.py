@@ -24,7 +24,8 @@ every entry of its mobility is generic.
    any fill of a level.
 4. Turned lattices (&continuum turned_lattices, 2 ranks), on the far-off mesh: every sample's
    lattice axes are a proper rotation, each offset's its own, and the aligned job's are the
-   identity; the pivot is the mesh's polyhedral centroid (computed here with numpy); one sample,
+   identity; the pivot and the body's centroid are the mesh's polyhedral centroid and its volume the
+   polyhedron's (computed here with numpy; no moment fill, standard error 0); one sample,
    rebuilt as an ordinary run of the mesh turned by Q^T about the pivot on that sample's offset and
    bead diameter, has the same beads and, turned back (diag(Q, Q) K diag(Q, Q)^T), the sample's
    friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py); both
@@ -126,11 +127,11 @@ def strain_rotation(q):
     return np.einsum("kab,lab->kl", modes, np.einsum("ac,lcd,bd->lab", q, modes, q))
 
 
-def polyhedral_centroid(triangles):
-    """The solid's centroid from signed tetrahedra on its first vertex (no digits lost far off)."""
+def polyhedron(triangles):
+    """The solid's volume and centroid from signed tetrahedra on its first vertex (no digits lost far off)."""
     a, b, c = (triangles[:, k] - triangles[0, 0] for k in range(3))
     volume = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6
-    return triangles[0, 0] + (volume[:, None] * (a + b + c) / 4).sum(axis=0) / volume.sum()
+    return volume.sum(), triangles[0, 0] + (volume[:, None] * (a + b + c) / 4).sum(axis=0) / volume.sum()
 
 
 def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned):
@@ -152,15 +153,21 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
         d = c["bead_diameters"][sample["level"] - 1]
         pivot = c["lattice_pivot"][()]
         turned = (c["mobility"][()], c["mobility_error"][()])
+        body = dict(volume=float(c.attrs["volume"]), error=float(c.attrs["volume_standard_error"]),
+                    fills=int(c.attrs["moment_fills"]), centroid=c["centroid"][()])
         check(int(c.attrs["turned_lattices"]) == 1, "a turned job says so (/continuum turned_lattices = 1)")
     check(all(np.allclose(q.T @ q, np.eye(3), atol=1e-12) and np.linalg.det(q) > 0 for q in axes),
           "every sample's lattice axes are a proper rotation")
     check(not np.allclose(axes[0], axes[1], atol=1e-3) and not np.allclose(axes[0], np.eye(3), atol=1e-3)
           and all(np.allclose(q, axes[k % 2], atol=0) for k, q in zip(offset_index, axes)),
           "each offset index has its own turn, the same on every level")
-    exact_pivot = polyhedral_centroid(triangles)
-    check(np.allclose(pivot, exact_pivot, rtol=0, atol=1e-9 * np.abs(exact_pivot).max()),
-          f"the pivot is the mesh's centroid ({pivot} against {exact_pivot})")
+    exact_volume, exact_pivot = polyhedron(triangles)
+    check(np.allclose(pivot, exact_pivot, rtol=0, atol=1e-9 * np.abs(exact_pivot).max())
+          and np.allclose(body["centroid"], exact_pivot, rtol=0, atol=1e-9 * np.abs(exact_pivot).max()),
+          f"the pivot and the body's centroid are the mesh's ({pivot} against {exact_pivot})")
+    check(abs(body["volume"] / exact_volume - 1) < 1e-9 and body["error"] == 0 and body["fills"] == 0,
+          f"a mesh's body is its polyhedron, exact: volume {body['volume']} against {exact_volume}, standard error "
+          f"{body['error']}, {body['fills']} moment fills")
     # The last sample rebuilt: the mesh turned by Q^T about the pivot, on the sample's lattice.
     q = axes[-1]
     write_obj(workdir / "sample.obj", pivot + (triangles - pivot) @ q)
