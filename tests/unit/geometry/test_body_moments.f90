@@ -16,6 +16,7 @@ program test_body_moments
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_simple_shapes, only: build_spheroid
   use beadmob_lattice_fill, only: offset_sequence, turn_sequence
+  use beadmob_vector_algebra, only: axis_angle_rotation
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp), semi_axes(3) = [9.0_dp, 6.0_dp, 4.5_dp], d = 0.5_dp
@@ -65,7 +66,7 @@ contains
     type(body_moments_t) :: box
     integer :: i, k
     ! a turn about (1, 2, 2) / 3 by 0.7 rad (Rodrigues)
-    turn = rotation([1.0_dp, 2.0_dp, 2.0_dp] / 3.0_dp, 0.7_dp)
+    turn = axis_angle_rotation([1.0_dp, 2.0_dp, 2.0_dp] / 3.0_dp, 0.7_dp)
     do i = 1, 8
       corners(:, i) = [(real(merge(1, 0, btest(i - 1, k - 1)), dp), k = 1, 3)] * sides
       corners(:, i) = matmul(turn, corners(:, i)) + shift
@@ -116,15 +117,4 @@ contains
     determinant = a(1, 1) * (a(2, 2) * a(3, 3) - a(3, 2) * a(2, 3)) - a(1, 2) * (a(2, 1) * a(3, 3) - a(3, 1) * a(2, 3)) &
                   + a(1, 3) * (a(2, 1) * a(3, 2) - a(3, 1) * a(2, 2))
   end function determinant
-
-  pure function rotation(axis, angle) result(r)
-    real(dp), intent(in) :: axis(3), angle
-    real(dp) :: r(3, 3), k(3, 3)
-    integer :: i
-    k = reshape([0.0_dp, axis(3), -axis(2), -axis(3), 0.0_dp, axis(1), axis(2), -axis(1), 0.0_dp], [3, 3])
-    r = sin(angle) * k + (1.0_dp - cos(angle)) * matmul(k, k)
-    do i = 1, 3
-      r(i, i) = r(i, i) + 1.0_dp
-    end do
-  end function rotation
 end program test_body_moments
