@@ -82,9 +82,6 @@ module beadmob_continuum_job
     integer :: user_beads = 0, coarsest = 0, finest = 0
     real(dp) :: thinnest = 0.0_dp, calibration = 1.0_dp
     type(lattice_turns_t) :: turns
-    !> A mesh's exact moments (its polyhedron's, about the input's origin: body_moments_t)
-    logical :: exact_body = .false.
-    type(body_moments_t) :: body
     integer, allocatable :: beads(:)
     real(dp), allocatable :: seconds(:)
   end type ladder_survey_t
@@ -164,15 +161,10 @@ contains
       end do
     end if
 
-    ! The body: a mesh's exact moments (its polyhedron's); another shape's volume and moments from
-    ! geometry-only fills at the finest level (body_moments.f90), with their standard error.
-    if (survey%exact_body) then
-      body = survey%body
-      volumes = [body%volume]
-    else
-      allocate (volumes(config%continuum%moment_fills))
-    end if
-    do fill = 1, merge(0, config%continuum%moment_fills, survey%exact_body)
+    ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90),
+    ! on the samples' lattices (with turns, each fill's own).
+    allocate (volumes(config%continuum%moment_fills))
+    do fill = 1, config%continuum%moment_fills
       call build_at(ctx, config, mesh, survey%turns, diameters(size(diameters)), fill, model, err)
       if (err%failed) return
       call accumulate(body, moments_in_input_frame(model%centres, diameters(size(diameters)), survey%turns, fill), &
@@ -392,8 +384,8 @@ contains
   end function level_diameter
 
   !> Collective. The body's size before any level is filled: a mesh's exact volume and second
-  !> moments (moments_of_polyhedron; kept as the job's body, survey%body, and the lattice turns'
-  !> pivot and base axes set), another shape's from one geometry-only fill at the user's
+  !> moments (moments_of_polyhedron; the lattice turns' pivot and base axes set from them),
+  !> another shape's from one geometry-only fill at the user's
   !> bead_diameter d (first offset). Its bead count at d, volume / d^3, foresees every level's
   !> (beads ~ d^-3); its thinnest equivalent semi-axis bounds how coarse a level may be. The
   !> coarsest candidate level is the coarsest foreseen to hold minimum_coarsest_beads and to be a
@@ -407,7 +399,7 @@ contains
     type(error_t), intent(inout) :: err
     type(bead_model_t) :: model
     type(body_moments_t) :: moments
-    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(28), beads, p(3)
+    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(25), beads
     type(error_t) :: no_axes
     integer :: ierr
     d = config%shape%bead_diameter
@@ -417,16 +409,10 @@ contains
         moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
         call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
         numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid(), &
-                   reshape(tighter_box_axes(mesh%vertices, axes, .not. no_axes%failed), [9]), mesh%vertices(:, 1)]
+                   reshape(tighter_box_axes(mesh%vertices, axes, .not. no_axes%failed), [9])]
       end if
-      call MPI_Bcast(numbers, 28, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
-      ! The same moments about the input's origin (x = p + y: first V p + f, second S + f p^T + p f^T + V p p^T).
-      p = numbers(26:28)
-      survey%exact_body = .true.
-      survey%body = body_moments_t(moments%volume, moments%first + moments%volume * p, &
-                                   moments%second + spread(moments%first, 2, 3) * spread(p, 1, 3) + &
-                                   spread(p, 2, 3) * spread(moments%first, 1, 3) + moments%volume * spread(p, 2, 3) * spread(p, 1, 3))
       survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
                                      config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp)
     else
@@ -715,7 +701,7 @@ contains
     levels = size(diameters)
     result%offsets = config%continuum%offsets
     result%multipole_order = config%hydrodynamics%multipole_order
-    result%moment_fills = merge(0, config%continuum%moment_fills, size(volumes) == 1)   ! a mesh: exact, no fill
+    result%moment_fills = config%continuum%moment_fills
     result%time_budget = config%continuum%time_budget
     result%bead_diameters = diameters
     result%volume = body%volume
