@@ -64,14 +64,15 @@ module beadmob_continuum_job
   end type continuum_sample_t
 
   !> How a sample's lattice meets the body besides its offset: with &continuum turned_lattices
-  !> (meshes), the lattice of offset index j >= 1 has the axes base turn_sequence(j, max_angle)
-  !> (columns, in the input's frame): `base` is the input's axes or the body's principal axes,
-  !> whichever boxes the mesh tighter (a sample's FFT box is its cost), tilted by at most
-  !> max_angle (radians) so that no face stays along the lattice; the body turns about `pivot`
-  !> (its centroid, shape units) to meet it.
+  !> (meshes), the lattice of offset index j >= 1 at bead diameter d has the axes
+  !> base turn_sequence(turn_index(d, j), max_angle) (columns, in the input's frame): `base` is
+  !> the input's axes or the body's principal axes, whichever boxes the mesh tighter (a sample's
+  !> FFT box is its cost), tilted by at most max_angle (radians) so that no face stays along the
+  !> lattice; the body turns about `pivot` (its centroid, shape units) to meet it. `unit`: the
+  !> user's bead diameter, by which a level is known (d = unit 2**(k/3)).
   type :: lattice_turns_t
     logical :: enabled = .false.
-    real(dp) :: pivot(3) = 0.0_dp, base(3, 3) = 0.0_dp, max_angle = 0.0_dp
+    real(dp) :: pivot(3) = 0.0_dp, base(3, 3) = 0.0_dp, max_angle = 0.0_dp, unit = 1.0_dp
   end type lattice_turns_t
 
   !> What the job knows of its levels before solving: level k has bead diameter
@@ -256,7 +257,7 @@ contains
       sample%offset = sample_config%shape%lattice_offset
       ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
       ! friction_job.F90 turns its solve axes back).
-      turn = input_frame_turn(survey%turns, j)
+      turn = input_frame_turn(survey%turns, d, j)
       sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
       if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
       sample%moments = moments_in_input_frame(sample_model%centres, d, survey%turns, j)
@@ -297,7 +298,7 @@ contains
 
   !> Collective. The model of config's shape at bead diameter d on the lattice of offset index j
   !> (offset_sequence: well spread over the unit cell; j = 0: no offset) and, with turns, of
-  !> axes lattice_axes(turns, j) (j >= 1): the centres are then in the lattice's frame
+  !> axes lattice_axes(turns, d, j) (j >= 1): the centres are then in the lattice's frame
   !> (moments_in_input_frame, input_frame_turn turn back); `used` gets the config.
   !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes.
   subroutine build_at(ctx, config, mesh, turns, d, j, model, err, used)
@@ -318,7 +319,7 @@ contains
     c%shape%lattice_offset = offset_sequence(j)
     if (config%shape%name == 'mesh' .and. turns%enabled .and. j >= 1) then
       ! The body in the lattice's frame: x' = pivot + Q^T (x - pivot) (rank 0 holds the mesh).
-      axes = lattice_axes(turns, j)
+      axes = lattice_axes(turns, d, j)
       turned%triangles = mesh%triangles
       turned%vertices = spread(turns%pivot, 2, size(mesh%vertices, 2)) + &
                         matmul(transpose(axes), mesh%vertices - spread(turns%pivot, 2, size(mesh%vertices, 2)))
@@ -332,10 +333,11 @@ contains
     if (present(used)) used = c
   end subroutine build_at
 
-  !> The lattice axes of offset index j (columns, input frame): the base axes tilted by
-  !> turn_sequence(j) with turns, else the input's own.
-  pure function lattice_axes(turns, j) result(axes)
+  !> The lattice axes of offset index j at bead diameter d (columns, input frame): the base axes
+  !> tilted by the turn of turn_index with turns, else the input's own.
+  pure function lattice_axes(turns, d, j) result(axes)
     type(lattice_turns_t), intent(in) :: turns
+    real(dp), intent(in) :: d
     integer, intent(in) :: j
     real(dp) :: axes(3, 3)
     integer :: a
@@ -343,16 +345,29 @@ contains
     do a = 1, 3
       axes(a, a) = 1.0_dp
     end do
-    if (turns%enabled .and. j >= 1) axes = matmul(turns%base, turn_sequence(j, turns%max_angle))
+    if (turns%enabled .and. j >= 1) axes = matmul(turns%base, turn_sequence(turn_index(turns, d, j), turns%max_angle))
   end function lattice_axes
 
-  !> T = diag(Q, Q, D(Q)) (Q = lattice_axes(turns, j), D: strain_rotation): a sample's friction
-  !> or grand resistance K' in the lattice's frame is T K' T^T in the input's.
-  pure function input_frame_turn(turns, j) result(turn)
+  !> Each level its own turns: offset index j of level k (d = unit 2**(k/3)) takes turn number
+  !> j + 64 k (k modulo 128; offsets <= 64). An offset's effect decorrelates from level to level
+  !> (it is a fraction of d), a turn's would not (the lattice's anisotropy does not scale with
+  !> d): the same turns on every level made one error common to all level means, which their
+  !> scatter cannot show (a 3:2:1 ellipsoid's bar missed by up to 2x, bench/continuum/coverage_turned.md).
+  pure integer function turn_index(turns, d, j)
     type(lattice_turns_t), intent(in) :: turns
+    real(dp), intent(in) :: d
+    integer, intent(in) :: j
+    turn_index = j + 64 * modulo(nint(3.0_dp * log(d / turns%unit) / log(2.0_dp)), 128)
+  end function turn_index
+
+  !> T = diag(Q, Q, D(Q)) (Q = lattice_axes(turns, d, j), D: strain_rotation): a sample's friction
+  !> or grand resistance K' in the lattice's frame is T K' T^T in the input's.
+  pure function input_frame_turn(turns, d, j) result(turn)
+    type(lattice_turns_t), intent(in) :: turns
+    real(dp), intent(in) :: d
     integer, intent(in) :: j
     real(dp) :: turn(6 + n_strain_modes, 6 + n_strain_modes), axes(3, 3)
-    axes = lattice_axes(turns, j)
+    axes = lattice_axes(turns, d, j)
     turn = 0.0_dp
     turn(1:3, 1:3) = axes
     turn(4:6, 4:6) = axes
@@ -372,7 +387,7 @@ contains
     else
       pivot = turns%pivot / d
       moments = moments_of_beads(spread(pivot, 2, size(centres, 2)) + &
-                                 matmul(lattice_axes(turns, j), centres - spread(pivot, 2, size(centres, 2))), d)
+                                 matmul(lattice_axes(turns, d, j), centres - spread(pivot, 2, size(centres, 2))), d)
     end if
   end function moments_in_input_frame
 
@@ -414,7 +429,7 @@ contains
       call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
       survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
-                                     config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp)
+                                     config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp, d)
     else
       call build_at(ctx, config, mesh, survey%turns, d, 1, model, err)
       if (err%failed) return
@@ -728,7 +743,7 @@ contains
         result%sample_iterations(s) = p%iterations
         result%sample_converged(s) = p%converged
         result%sample_offset(:, s) = p%offset
-        result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%offset_index), [9])
+        result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%bead_diameter, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
         result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
