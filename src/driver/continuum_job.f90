@@ -422,9 +422,11 @@ contains
       if (ctx%rank == 0) then
         ! About the first vertex (far-off coordinates lose no digits); the centroid is the pivot of turns.
         moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
-        call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
+        ! The turns' base axes: a pass over the vertices only when the job turns.
+        if (config%continuum%turned_lattices) call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
         numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid(), &
-                   reshape(tighter_box_axes(mesh%vertices, axes, .not. no_axes%failed), [9])]
+                   reshape(tighter_box_axes(mesh%vertices, axes, config%continuum%turned_lattices .and. &
+                                                                      .not. no_axes%failed), [9])]
       end if
       call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))

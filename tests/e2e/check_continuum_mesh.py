@@ -153,7 +153,7 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
         pivot = c["lattice_pivot"][()]
         turned = (c["mobility"][()], c["mobility_error"][()])
         body = dict(volume=float(c.attrs["volume"]), error=float(c.attrs["volume_standard_error"]),
-                    fills=int(c.attrs["moment_fills"]), centroid=c["centroid"][()])
+                    fills=int(c.attrs["moment_fills"]))
         check(int(c.attrs["turned_lattices"]) == 1, "a turned job says so (/continuum turned_lattices = 1)")
     check(all(np.allclose(q.T @ q, np.eye(3), atol=1e-12) and np.linalg.det(q) > 0 for q in axes),
           "every sample's lattice axes are a proper rotation")
