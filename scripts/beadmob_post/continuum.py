@@ -11,6 +11,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 from matplotlib.figure import Figure
+from scipy.optimize import brentq
 
 from beadmob_post.paper import COEFFICIENT_NAMES
 
@@ -58,14 +59,25 @@ def load_continuum(path: str | Path) -> ContinuumResult:
 
 
 def quadratic_fit(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> np.ndarray:
-    """Coefficients (c0, c1, c2) of mean ~ c0 + c1 h + c2 h^2, weights 1 / standard_error^2 with
-    beadmob's floors (a fifth of the median level's standard error, 1e-9 |mean|; continuum_fit.f90):
-    numpy's least squares, not beadmob's normal equations."""
+    """Coefficients (c0, c1, c2) of mean ~ c0 + c1 h + c2 h^2 by beadmob's weights (continuum_fit.f90):
+    1 / (s_k^2 + tau^2), s_k the standard error floored at a fifth of the median level's and 1e-9
+    |mean|, tau^2 >= 0 the random-effects excess that brings chi^2 to K - 3 (Paule & Mandel 1982).
+    numpy's least squares and scipy's root finder, not beadmob's normal equations and bisection."""
     median = np.sort(standard_error)[(len(standard_error) - 1) // 2]
     sigma = np.maximum.reduce([standard_error, np.full_like(standard_error, 0.2 * median), 1e-9 * np.abs(mean),
-                               np.full_like(standard_error, np.finfo(float).tiny)])
+                               np.full_like(standard_error, np.sqrt(np.finfo(float).tiny))])
     basis = np.vander(h, 3, increasing=True)
-    return np.linalg.lstsq(basis / sigma[:, None], mean / sigma, rcond=None)[0]
+
+    def solve(excess):
+        scale = np.sqrt(sigma**2 + excess)
+        c = np.linalg.lstsq(basis / scale[:, None], mean / scale, rcond=None)[0]
+        return c, float(np.sum(((mean - basis @ c) / scale) ** 2))
+
+    dof = len(h) - 3
+    if dof > 0 and solve(0.0)[1] > dof:
+        upper = float(np.sum((mean - basis @ np.linalg.lstsq(basis, mean, rcond=None)[0]) ** 2)) / dof
+        return solve(brentq(lambda t: solve(t)[1] - dof, 0.0, upper, xtol=1e-15 * upper, rtol=1e-14))[0]
+    return solve(0.0)[0]
 
 
 def convergence_figure(result: ContinuumResult, title: str = "") -> Figure:

@@ -34,10 +34,10 @@ class ContinuumSamples:
 @dataclass(frozen=True)
 class Extrapolation:
     value: float            # intercept of the weighted quadratic over all levels
-    standard_error: float   # of that intercept (inflated by the reduced chi^2 when above 1)
+    standard_error: float   # of that intercept (with the levels' random-effects excess variance)
     linear_value: float     # the line through the three finest levels, at h = 0
     reduced_value: float    # the quadratic without the coarsest level, at h = 0
-    reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3)
+    reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3; 1 with an excess)
 
     @property
     def model_spread(self) -> float:
@@ -79,27 +79,45 @@ def level_means(values: np.ndarray, sample_level: np.ndarray, levels: int) -> tu
 
 def _weighted_polynomial(x, y, w, degree):
     basis = np.vander(x, degree + 1, increasing=True)
-    normal = basis.T @ (w[:, None] * basis)
+    largest = np.max(w)
+    normal = basis.T @ ((w / largest)[:, None] * basis)
     inverse = np.linalg.inv(normal)
-    coefficients = inverse @ (basis.T @ (w * y))
+    coefficients = inverse @ (basis.T @ ((w / largest) * y))
     chi2 = float(np.sum(w * (y - basis @ coefficients) ** 2))
-    return coefficients, float(inverse[0, 0]), chi2
+    return coefficients, float(inverse[0, 0] / largest), chi2
+
+
+def excess_variance(h: np.ndarray, mean: np.ndarray, level_variance: np.ndarray) -> float:
+    """continuum_fit.f90's excess_variance: the tau^2 >= 0 at which the quadratic's chi^2 with
+    weights 1 / (s_k^2 + tau^2) equals K - 3 (Paule & Mandel 1982), by the same bisection."""
+    n = len(h)
+    if n <= 3 or _weighted_polynomial(h, mean, 1.0 / level_variance, 2)[2] <= n - 3:
+        return 0.0
+    lower, upper = 0.0, _weighted_polynomial(h, mean, np.ones(n), 2)[2] / (n - 3)
+    for _ in range(200):
+        if upper - lower <= 1e-13 * upper:
+            break
+        middle = 0.5 * (lower + upper)
+        if _weighted_polynomial(h, mean, 1.0 / (level_variance + middle), 2)[2] > n - 3:
+            lower = middle
+        else:
+            upper = middle
+    return upper
 
 
 def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
-    """continuum_fit.f90's extrapolate_to_zero: weights 1 / max(se, a fifth of the median level's se,
-    1e-9 |mean|)^2; the quadratic over all levels (its intercept's variance times max(1, chi^2 /
-    (K - 3))), the line through the three finest levels and the quadratic without the coarsest."""
+    """continuum_fit.f90's extrapolate_to_zero: level variances s_k^2 = max(se, a fifth of the median
+    level's se, 1e-9 |mean|)^2, weights 1 / (s_k^2 + tau^2) with the random-effects excess tau^2
+    (excess_variance); the quadratic over all levels, the line through the three finest levels and the
+    quadratic without the coarsest."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
     median = np.sort(standard_error)[(n + 1) // 2 - 1]
     sigma = np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
-                               np.full(n, np.finfo(float).tiny)])
-    weights = 1.0 / sigma**2
+                               np.full(n, np.sqrt(np.finfo(float).tiny))])
+    weights = 1.0 / (sigma**2 + excess_variance(h, mean, sigma**2))
     coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
     reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
-    if n > 3:
-        variance *= max(1.0, reduced_chi2)
     order = np.argsort(h, kind="stable")
     finest = order[:3]
     linear = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1)[0][0]
@@ -151,5 +169,5 @@ def replay_discrepancy(samples: ContinuumSamples) -> float:
     return worst
 
 
-__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "extrapolate", "combination_bar",
-           "entry_power", "principal_diagonal", "replay_discrepancy"]
+__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "excess_variance", "extrapolate",
+           "combination_bar", "entry_power", "principal_diagonal", "replay_discrepancy"]

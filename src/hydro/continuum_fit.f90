@@ -3,9 +3,11 @@
 !> with that mean's standard error, is extrapolated to zero bead size h = d by weighted least
 !> squares in h and h^2 (measured on spheres and ellipsoids: the offset-averaged, volume- and
 !> shape-corrected error of an order-L bead model is smooth in h and vanishes with it,
-!> bench/continuum/continuum.md). The error bar is the quadrature sum of
-!>   - twice the fit's standard error of the intercept (inflated by the reduced chi^2 when the
-!>     levels scatter more than their standard errors say) and
+!> bench/continuum/continuum.md). Where the level means scatter about the quadratic more than their
+!> standard errors say, every level's variance gets the same excess tau^2 (a random-effects fit):
+!> a level whose offsets happened to agree then no longer pins the fit. The error bar is the
+!> quadrature sum of
+!>   - twice the fit's standard error of the intercept and
 !>   - the model spread: how far the straight line through the three finest levels and the
 !>     quadratic without the coarsest level land from the quadratic,
 !> plus what the caller knows besides (the continuum volume's own uncertainty).
@@ -99,18 +101,20 @@ contains
   pure function extrapolate_to_zero(h, mean, standard_error, extra) result(fit)
     real(dp), intent(in) :: h(:), mean(:), standard_error(:), extra
     type(continuum_value_t) :: fit
-    real(dp) :: weights(size(h)), coefficients(3), variance, chi2
+    real(dp) :: weights(size(h)), level_variance(size(h)), coefficients(3), variance, chi2
     integer :: order(size(h)), n
     n = size(h)
     ! A few offsets can agree by chance: no level's standard error counts as less than a fifth of
     ! the median level's (nor 1e-9 of its value), or that level alone would make the fit.
     order = ranks_by_size(standard_error)
-    weights = 1.0_dp / max(standard_error, standard_error_floor * standard_error(order((n + 1) / 2)), &
-                           1.0e-9_dp * abs(mean), tiny(1.0_dp))**2
+    level_variance = max(standard_error, standard_error_floor * standard_error(order((n + 1) / 2)), &
+                         1.0e-9_dp * abs(mean), sqrt(tiny(1.0_dp)))**2
+    ! Levels that scatter more than that (a lattice resonance, a smooth law the quadratic misses)
+    ! share the excess: weights 1 / (s_k^2 + tau^2), whose chi^2 then equals its degrees of freedom.
+    weights = 1.0_dp / (level_variance + excess_variance(h, mean, level_variance))
     call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
     fit%value = coefficients(1)
     fit%slope = coefficients(2)
-    if (n > 3) variance = variance * max(1.0_dp, chi2 / (n - 3))
     fit%standard_error = sqrt(variance)
     ! The three finest levels (smallest h) for the line; all but the coarsest for the reduced fit.
     order = ranks_by_size(h)
@@ -131,24 +135,58 @@ contains
                                                        abs(fit%reduced_value - fit%value))) + extra
   end function extrapolate_to_zero
 
+  !> The random-effects excess tau^2 >= 0 of the levels' variances s_k^2 (`level_variance`): the
+  !> tau^2 at which the quadratic's chi^2 with weights 1 / (s_k^2 + tau^2) equals its degrees of
+  !> freedom n - 3 (R. C. Paule and J. Mandel, J. Res. Natl. Bur. Stand. 87 (1982) 377-385, for a
+  !> constant; the same condition for a regression), 0 when chi^2 is already at most n - 3.
+  !> Bisection: chi^2 falls with tau^2, and at tau^2 = RSS / (n - 3), RSS the unweighted fit's
+  !> residual sum, it is at most n - 3.
+  pure function excess_variance(h, mean, level_variance) result(excess)
+    real(dp), intent(in) :: h(:), mean(:), level_variance(:)
+    real(dp) :: excess, coefficients(3), variance, chi2, lower, upper, middle
+    integer :: n, step
+    n = size(h)
+    excess = 0.0_dp
+    if (n <= 3) return
+    call weighted_polynomial(h, mean, 1.0_dp / level_variance, 2, coefficients, variance, chi2)
+    if (chi2 <= n - 3) return
+    call weighted_polynomial(h, mean, [(1.0_dp, step = 1, n)], 2, coefficients, variance, chi2)
+    lower = 0.0_dp
+    upper = chi2 / (n - 3)
+    do step = 1, 200
+      if (upper - lower <= 1.0e-13_dp * upper) exit
+      middle = 0.5_dp * (lower + upper)
+      call weighted_polynomial(h, mean, 1.0_dp / (level_variance + middle), 2, coefficients, variance, chi2)
+      if (chi2 > n - 3) then
+        lower = middle
+      else
+        upper = middle
+      end if
+    end do
+    excess = upper
+  end function excess_variance
+
   !> Least squares of y ~ sum_j c_j x^(j-1), j = 1..degree+1, with weights w (1 / variance);
-  !> variance: of c_1; chi2: the weighted residual sum. Columns scaled by max |x| for conditioning.
+  !> variance: of c_1; chi2: the weighted residual sum. Columns scaled by max |x| and weights by
+  !> their largest for conditioning (the fit does not change; huge weights do not overflow).
   pure subroutine weighted_polynomial(x, y, w, degree, coefficients, variance, chi2)
     real(dp), intent(in) :: x(:), y(:), w(:)
     integer, intent(in) :: degree
     real(dp), intent(out) :: coefficients(3), variance, chi2
-    real(dp) :: basis(size(x), degree + 1), normal(degree + 1, degree + 1), inverse(degree + 1, degree + 1), scale
+    real(dp) :: basis(size(x), degree + 1), normal(degree + 1, degree + 1), inverse(degree + 1, degree + 1)
+    real(dp) :: scale, largest
     integer :: j
     scale = maxval(abs(x))
+    largest = maxval(w)
     do j = 1, degree + 1
       basis(:, j) = (x / scale)**(j - 1)
     end do
-    normal = matmul(transpose(basis), spread(w, 2, degree + 1) * basis)
+    normal = matmul(transpose(basis), spread(w / largest, 2, degree + 1) * basis)
     inverse = inverted(normal)
     coefficients = 0.0_dp
-    coefficients(1:degree + 1) = matmul(inverse, matmul(transpose(basis), w * y))
+    coefficients(1:degree + 1) = matmul(inverse, matmul(transpose(basis), (w / largest) * y))
     chi2 = sum(w * (y - matmul(basis, coefficients(1:degree + 1)))**2)
-    variance = inverse(1, 1)
+    variance = inverse(1, 1) / largest
     do j = 2, degree + 1
       coefficients(j) = coefficients(j) / scale**(j - 1)
     end do

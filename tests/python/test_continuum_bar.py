@@ -5,7 +5,8 @@ linear combination of mobility entries.
   only the volume term p / 3 * (relative volume error) * |value|; on an exact quadratic the
   intercept and the reduced fit are its constant and the spread is the line's miss.
 - Noisy levels: the intercept is numpy's least squares of beadmob_post.continuum.quadratic_fit
-  (an independent implementation of the same weights), the bar hypot(2 sigma, spread) + volume term.
+  (an independent implementation of the same weights, its random-effects excess found by scipy's
+  root finder), the bar hypot(2 sigma, spread) + volume term.
 - A body seen turned: samples M_s = Q D_s Q^T; the principal diagonal replayed with Q equals the
   replay of the unturned samples D_s entry by entry.
 - A real result file of the test suite (continuum_np2's sphere, when BEADMOB_TEST_OUTPUT_DIR
@@ -79,6 +80,8 @@ def test_noisy_levels_match_numpy_refit():
     error = rng.uniform(2e-5, 1e-4, size=7)
     error[3] = 1e-7                          # below the floor: counts as a fifth of the median
     fit = extrapolate(H, mean, error)
+    # the levels scatter more than their standard errors say: the random-effects excess is engaged
+    assert fit.reduced_chi2 == pytest.approx(1.0, rel=1e-9)
     assert fit.value == pytest.approx(quadratic_fit(H, mean, error)[0], rel=1e-10)
     assert fit.fit_error == pytest.approx(np.hypot(2 * fit.standard_error, fit.model_spread))
     assert fit.standard_error > 0 and fit.model_spread > 0

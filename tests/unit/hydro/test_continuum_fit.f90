@@ -4,7 +4,8 @@
 !> of real or complex elliptic integrals", Numer. Algorithms 10 (1995) 13-26, section 3), the
 !> ellipsoid friction against the sphere (Stokes: 6 pi a, 8 pi a^3) and the prolate spheroid's
 !> closed forms (Happel & Brenner 1965, sec. 4-30; Kim & Karrila 1991, table 3.4), turned into
-!> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one.
+!> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one, and two
+!> levels whose offsets all gave the same beads (zero scatter) do not pin it.
 program test_continuum_fit
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
@@ -15,7 +16,8 @@ program test_continuum_fit
   type(test_suite_t) :: suite
   type(continuum_value_t) :: fit
   real(dp) :: friction(6, 6), identity(3, 3), rotation(3, 3), a, b, e, l, axial, transverse, h(5), y(5), se(5)
-  real(dp) :: mean, error
+  real(dp) :: mean, error, h7(7), y7(7), se7(7)
+  type(continuum_value_t) :: shared_scatter
   integer :: k
 
   suite = start_tests('test_continuum_fit')
@@ -62,6 +64,22 @@ program test_continuum_fit
   fit = extrapolate_to_zero(h, y, se, 0.0_dp)
   call check(suite, abs(fit%value - 2.0_dp) <= fit%error, 'noisy cubic: the error bar holds the truth')
   call check(suite, fit%error < 0.1_dp, 'noisy cubic: the error bar is of the noise''s size')
+  ! Seven levels scattering +-4e-3 about a quadratic whose offsets' standard errors say 1e-3, two of
+  ! them with zero scatter (a lattice resonance: every offset the same beads). With the excess
+  ! variance shared by all levels (random effects) those two weigh as the others: the fit moves by
+  ! a small part of its bar, where weights 1 / s_k^2 alone (floored at a fifth of the median s_k)
+  ! would weigh them 25 times as much and move the intercept by 0.028, a third of the bar.
+  h7 = 0.1_dp * 2.0_dp**([(k, k = 0, 6)] / 3.0_dp)
+  y7 = 2.0_dp + 3.0_dp * h7 - 5.0_dp * h7**2 + 1.0e-3_dp * [2.0_dp, -3.0_dp, 4.0_dp, -2.0_dp, 3.0_dp, -4.0_dp, 2.0_dp]
+  se7 = 1.0e-3_dp
+  shared_scatter = extrapolate_to_zero(h7, y7, se7, 0.0_dp)
+  se7(2:3) = 0.0_dp
+  fit = extrapolate_to_zero(h7, y7, se7, 0.0_dp)
+  call check(suite, abs(fit%value - 2.0_dp) <= fit%error, 'resonant levels: the error bar holds the truth')
+  call check(suite, abs(fit%value - shared_scatter%value) < 0.01_dp * shared_scatter%error, &
+             'resonant levels: two zero-scatter levels do not pin the fit')
+  call check(suite, abs(fit%error / shared_scatter%error - 1.0_dp) < 0.05_dp, &
+             'resonant levels: nor do they shrink the bar')
   call level_mean([1.0_dp, 2.0_dp, 3.0_dp, 4.0_dp], mean, error)
   call check_close(suite, mean, 2.5_dp, 1.0e-15_dp, 'level mean')
   call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-15_dp, 'level standard error')
