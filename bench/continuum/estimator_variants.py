@@ -14,7 +14,10 @@ a solve, on the samples of jobs already run and kept:
   relative to the value, in the body's principal frame.
 
 Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/continuum_bar.py):
-* beadmob: as the job does it (the reference row; the coverage replay reproduces the files' bars);
+* beadmob: as the job does it (the reference row: the levels' random-effects excess variance since
+  be29465; the coverage replay reproduces the bars of files written since);
+* chi^2 inflation: the estimator before be29465, weights 1 / s_k^2 and the intercept's variance
+  times max(1, chi^2 / (K - 3)) (a level whose offsets agree keeps its full weight);
 * floor 0.5, floor 1: a level's standard error floored at half / all of the median level's
   (beadmob: a fifth), i.e. levels whose offsets happen to agree weigh less;
 * half-range spread: the model spread as half the range of the three models' intercepts (the
@@ -28,6 +31,7 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
 Kept jobs are not in the repository (the benches' run folders are ignored by git): run coverage.py
 and nonconvex.py with --keep first, or point --coverage / --nonconvex at their folders."""
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -44,7 +48,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob", "floor 0.5", "floor 1", "half-range spread", "volume regression", "moment regression")
+VARIANTS = ("beadmob", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "volume regression", "moment regression")
 
 
 class HalfRangeSpread(bar_module.Extrapolation):
@@ -64,6 +68,27 @@ def floored_extrapolation(floor):
         finally:
             bar_module.STANDARD_ERROR_FLOOR = saved
     return extrapolate
+
+
+def inflated_extrapolation(h, mean, standard_error):
+    """The estimator before be29465: plain inverse-variance weights, the intercept's variance scaled
+    by the reduced chi^2 when above 1."""
+    h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
+    n = len(h)
+    median = np.sort(standard_error)[(n + 1) // 2 - 1]
+    sigma = np.maximum.reduce([standard_error, np.full(n, bar_module.STANDARD_ERROR_FLOOR * median),
+                               1e-9 * np.abs(mean), np.full(n, np.sqrt(np.finfo(float).tiny))])
+    weights = 1.0 / sigma**2
+    polynomial = bar_module._weighted_polynomial
+    coefficients, variance, chi2 = polynomial(h, mean, weights, 2)
+    reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
+    if n > 3:
+        variance *= max(1.0, reduced_chi2)
+    order = np.argsort(h, kind="stable")
+    linear = polynomial(h[order[:3]], mean[order[:3]], weights[order[:3]], 1)[0][0]
+    reduced = polynomial(h[order[:-1]], mean[order[:-1]], weights[order[:-1]], 2)[0][0] if n > 3 else coefficients[0]
+    return bar_module.Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
+                                    float(reduced_chi2))
 
 
 def half_range_extrapolation(h, mean, standard_error):
@@ -110,7 +135,8 @@ beadmob_combination_bar = bar_module.combination_bar
 
 def use_variant(variant, job):
     """Set continuum_bar's functions for `variant` on the kept job result `job` (h5 path)."""
-    bar_module.extrapolate = {"floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
+    bar_module.extrapolate = {"chi^2 inflation": inflated_extrapolation,
+                              "floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
                               "half-range spread": half_range_extrapolation}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
     if variant.endswith("regression"):
@@ -118,17 +144,23 @@ def use_variant(variant, job):
 
 
 def coverage_row(variant, folder):
+    """Held / entries, median and smallest bar / error of the variant's replayed values and bars (the value
+    too is the variant's: its weights move the intercept)."""
     held, total, ratios = 0, 0, []
     for body in coverage.BODIES:
         for form in body.forms:
             job = folder / f"{body.key}-{form}"
-            if not (job / "job.h5").exists():
+            if not (job / "job.h5").exists() or "failed" in json.loads((job / "meta.json").read_text()):
                 continue
             use_variant(variant, job / "job.h5")
-            for entry in coverage.analyse(body, form, job).get("entries", []):
+            rotation = np.array(json.loads((job / "meta.json").read_text())["rotation"])
+            replayed = bar_module.principal_diagonal(bar_module.read_samples(job / "job.h5"), rotation)
+            for (value, bar, _), exact in zip(replayed, body.exact()):
+                if np.isnan(exact):
+                    continue
                 total += 1
-                held += abs(entry["error"]) <= entry["bar"]
-                ratios.append(entry["bar"] / abs(entry["error"]))
+                held += abs(value - exact) <= bar
+                ratios.append(bar / abs(value - exact))
     return held, total, float(np.median(ratios)), float(np.min(ratios))
 
 

@@ -508,6 +508,13 @@ def analyse(body, folder, result="job.h5"):
                    chosen_by=str(c.attrs["ladder_chosen_by"]), offsets=int(c.attrs["offsets"]),
                    volume=float(c.attrs["volume"]), volume_error=float(c.attrs["volume_standard_error"]),
                    sample_seconds=float(np.sum(c["sample_seconds"][()])), samples=len(levels))
+        refit_by = f.attrs["git_hash"].decode()
+    if result != "solved.h5" and (folder / "solved.h5").exists():
+        # re-extrapolated (--reextrapolate): the ladder's estimate and calibration are the solve's
+        with h5py.File(folder / "solved.h5") as f:
+            c = f["continuum"]
+            row.update(estimated=float(c.attrs["estimated_seconds"]), calibration=float(c.attrs["estimate_calibration"]),
+                       refit_by=refit_by)
     row["beads"] = [float(np.mean(beads[levels == k])) for k in (1, len(row["diameters"]))]
     row["semi_axes"] = semi
     row["replay"], row["replay_entries"] = replay_check(samples)
@@ -697,7 +704,10 @@ def main():
     title = "# Continuum jobs on non-convex, non-ellipsoidal meshes"
     how = (f"Written by `{command}" + (f" --reuse {arguments.reuse}`" if arguments.reuse else "`")
            + f" on {datetime.date.today().isoformat()} (2 ranks, this machine; jobs solved {', '.join(dates)} with the "
-           f"build of {', '.join(sources)}; each with `-keep_checkpoint`).")
+           f"build of {', '.join(sources)}; each with `-keep_checkpoint`"
+           + (f"; the extrapolations redone from the kept checkpoints (no solve, --reextrapolate) by the build of "
+              f"{', '.join(sorted({row['refit_by'][:12] for row in rows if 'refit_by' in row}))}"
+              if any("refit_by" in row for row in rows) else "") + ").")
     if arguments.reextrapolate:
         title += ": re-extrapolated from the kept checkpoints"
         rebuilt = sorted({m["reextrapolated"].get("source", "?") for m in metas if "reextrapolated" in m})
