@@ -87,6 +87,18 @@ def test_noisy_levels_match_numpy_refit():
     assert fit.standard_error > 0 and fit.model_spread > 0
 
 
+def test_vanishing_entry_replays_as_zero(tmp_path):
+    """An entry that symmetry makes exactly zero in every sample (a coupling of a body with mirror
+    planes): value 0 and a bar of the floor (1e-154), not a singular fit of infinite weights."""
+    base = np.diag([0.05, 0.04, 0.03, 0.02, 0.015, 0.01])
+    samples = [base * (1 + 0.3 * h) for h in H for _ in range(4)]
+    data = read_samples(write_file(tmp_path / "z.h5", samples, np.repeat(np.arange(1, 8), 4)))
+    weights = np.zeros((6, 6))
+    weights[0, 4] = 1
+    value, bar, fit = combination_bar(data, weights, entry_power(0, 4))
+    assert value == 0 and bar < 1e-100 and np.isfinite(fit.standard_error)
+
+
 def test_level_means():
     mean, error = level_means(np.array([1.0, 3.0, 5.0, 2.0]), np.array([1, 1, 2, 2]), 2)
     assert mean == pytest.approx([2.0, 3.5])

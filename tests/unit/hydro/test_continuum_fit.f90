@@ -80,6 +80,9 @@ program test_continuum_fit
              'resonant levels: two zero-scatter levels do not pin the fit')
   call check(suite, abs(fit%error / shared_scatter%error - 1.0_dp) < 0.05_dp, &
              'resonant levels: nor do they shrink the bar')
+  ! An entry that symmetry makes zero in every sample: value and bar 0, no overflow of its weights.
+  fit = extrapolate_to_zero(h7, [(0.0_dp, k = 1, 7)], [(0.0_dp, k = 1, 7)], 0.0_dp)
+  call check(suite, fit%value == 0.0_dp .and. fit%error < 1.0e-100_dp, 'vanishing entry: value and bar 0')
   call level_mean([1.0_dp, 2.0_dp, 3.0_dp, 4.0_dp], mean, error)
   call check_close(suite, mean, 2.5_dp, 1.0e-15_dp, 'level mean')
   call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-15_dp, 'level standard error')
