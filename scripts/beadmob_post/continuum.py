@@ -58,26 +58,42 @@ def load_continuum(path: str | Path) -> ContinuumResult:
             reference_length=float(c.attrs["reference_length"]), volume=float(c.attrs["volume"]))
 
 
+def _floored_errors(mean: np.ndarray, standard_error: np.ndarray) -> np.ndarray:
+    median = np.sort(standard_error)[(len(standard_error) - 1) // 2]
+    return np.maximum.reduce([standard_error, np.full_like(standard_error, 0.2 * median), 1e-9 * np.abs(mean),
+                              np.full_like(standard_error, np.sqrt(np.finfo(float).tiny))])
+
+
+def _weighted_quadratic(h, mean, sigma, excess):
+    """numpy's least squares of mean ~ c0 + c1 h + c2 h^2 with weights 1 / (sigma^2 + excess): (c, chi^2)."""
+    scale = np.sqrt(sigma**2 + excess)
+    basis = np.vander(h, 3, increasing=True)
+    c = np.linalg.lstsq(basis / scale[:, None], mean / scale, rcond=None)[0]
+    return c, float(np.sum(((mean - basis @ c) / scale) ** 2))
+
+
+def level_excess(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> float:
+    """tau of beadmob's fit (continuum_fit.f90): 0, or the excess standard deviation tau at which the
+    quadratic's chi^2 with weights 1 / (s_k^2 + tau^2) is K - 3 (Paule & Mandel 1982); s_k the
+    standard error floored at a fifth of the median level's and 1e-9 |mean|. scipy's root finder on
+    numpy's least squares, not beadmob's bisection of its normal equations."""
+    h, mean = np.asarray(h, dtype=float), np.asarray(mean, dtype=float)
+    sigma = _floored_errors(mean, np.asarray(standard_error, dtype=float))
+    dof = len(h) - 3
+    if dof <= 0 or _weighted_quadratic(h, mean, sigma, 0.0)[1] <= dof:
+        return 0.0
+    basis = np.vander(h, 3, increasing=True)
+    upper = float(np.sum((mean - basis @ np.linalg.lstsq(basis, mean, rcond=None)[0]) ** 2)) / dof
+    return float(np.sqrt(brentq(lambda t: _weighted_quadratic(h, mean, sigma, t)[1] - dof, 0.0, upper,
+                                xtol=1e-15 * upper, rtol=1e-14)))
+
+
 def quadratic_fit(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> np.ndarray:
     """Coefficients (c0, c1, c2) of mean ~ c0 + c1 h + c2 h^2 by beadmob's weights (continuum_fit.f90):
-    1 / (s_k^2 + tau^2), s_k the standard error floored at a fifth of the median level's and 1e-9
-    |mean|, tau^2 >= 0 the random-effects excess that brings chi^2 to K - 3 (Paule & Mandel 1982).
-    numpy's least squares and scipy's root finder, not beadmob's normal equations and bisection."""
-    median = np.sort(standard_error)[(len(standard_error) - 1) // 2]
-    sigma = np.maximum.reduce([standard_error, np.full_like(standard_error, 0.2 * median), 1e-9 * np.abs(mean),
-                               np.full_like(standard_error, np.sqrt(np.finfo(float).tiny))])
-    basis = np.vander(h, 3, increasing=True)
-
-    def solve(excess):
-        scale = np.sqrt(sigma**2 + excess)
-        c = np.linalg.lstsq(basis / scale[:, None], mean / scale, rcond=None)[0]
-        return c, float(np.sum(((mean - basis @ c) / scale) ** 2))
-
-    dof = len(h) - 3
-    if dof > 0 and solve(0.0)[1] > dof:
-        upper = float(np.sum((mean - basis @ np.linalg.lstsq(basis, mean, rcond=None)[0]) ** 2)) / dof
-        return solve(brentq(lambda t: solve(t)[1] - dof, 0.0, upper, xtol=1e-15 * upper, rtol=1e-14))[0]
-    return solve(0.0)[0]
+    1 / (s_k^2 + tau^2), s_k the floored standard error and tau the levels' excess (level_excess)."""
+    h, mean = np.asarray(h, dtype=float), np.asarray(mean, dtype=float)
+    sigma = _floored_errors(mean, np.asarray(standard_error, dtype=float))
+    return _weighted_quadratic(h, mean, sigma, level_excess(h, mean, standard_error) ** 2)[0]
 
 
 def convergence_figure(result: ContinuumResult, title: str = "") -> Figure:
@@ -103,4 +119,4 @@ def convergence_figure(result: ContinuumResult, title: str = "") -> Figure:
     return figure
 
 
-__all__ = ["ContinuumResult", "load_continuum", "quadratic_fit", "convergence_figure"]
+__all__ = ["ContinuumResult", "load_continuum", "level_excess", "quadratic_fit", "convergence_figure"]

@@ -29,6 +29,7 @@ class ContinuumSamples:
     volume_error: float           # the volume's standard error (absolute, from the moment fills)
     mobility: np.ndarray          # (6, 6) the file's continuum mobility (symmetrised)
     mobility_error: np.ndarray    # (6, 6) its error bar, [row, column] of the mobility
+    mobility_level_excess: np.ndarray | None = None   # (6, 6) tau of each entry's fit (files since be29465)
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,7 @@ class Extrapolation:
     linear_value: float     # the line through the three finest levels, at h = 0
     reduced_value: float    # the quadratic without the coarsest level, at h = 0
     reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3; 1 with an excess)
+    excess_deviation: float = 0.0        # tau: the levels' scatter beyond their standard errors
 
     @property
     def model_spread(self) -> float:
@@ -63,7 +65,9 @@ def read_samples(path: str | Path) -> ContinuumSamples:
             sample_mobility=np.stack([row.reshape(6, 6, order="F") for row in rows]),
             volume=float(c.attrs["volume"]), volume_error=float(c.attrs["volume_standard_error"]),
             mobility=np.asarray(c["mobility"][()], dtype=float).T,
-            mobility_error=np.asarray(c["mobility_error"][()], dtype=float).T)
+            mobility_error=np.asarray(c["mobility_error"][()], dtype=float).T,
+            mobility_level_excess=np.asarray(c["mobility_level_excess"][()], dtype=float).T
+            if "mobility_level_excess" in c else None)
 
 
 def level_means(values: np.ndarray, sample_level: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -115,7 +119,8 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     median = np.sort(standard_error)[(n + 1) // 2 - 1]
     sigma = np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
                                np.full(n, np.sqrt(np.finfo(float).tiny))])
-    weights = 1.0 / (sigma**2 + excess_variance(h, mean, sigma**2))
+    excess = excess_variance(h, mean, sigma**2)
+    weights = 1.0 / (sigma**2 + excess)
     coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
     reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
     order = np.argsort(h, kind="stable")
@@ -125,7 +130,8 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     if n > 3:
         kept = order[: n - 1]
         reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
-    return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced), float(reduced_chi2))
+    return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
+                         float(reduced_chi2), float(np.sqrt(excess)))
 
 
 def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
@@ -154,16 +160,18 @@ def principal_diagonal(samples: ContinuumSamples, rotation: np.ndarray):
 
 def replay_discrepancy(samples: ContinuumSamples) -> float:
     """Largest relative difference, over the 36 input-frame entries, between the error bar
-    recomputed here and the file's (and over the diagonal values): ~1e-12 when this module still
-    is beadmob's estimator."""
+    recomputed here and the file's (and over the diagonal values, and the levels' excess tau on the
+    bar's scale where the file has it): ~1e-12 when this module still is beadmob's estimator."""
     worst = 0.0
     for row in range(6):
         for column in range(6):
             weights = np.zeros((6, 6))
             weights[row, column] = 1.0
-            value, bar, _ = combination_bar(samples, weights, entry_power(row, column))
+            value, bar, fit = combination_bar(samples, weights, entry_power(row, column))
             scale = max(abs(samples.mobility_error[row, column]), 1e-300)
             worst = max(worst, abs(bar - samples.mobility_error[row, column]) / scale)
+            if samples.mobility_level_excess is not None:
+                worst = max(worst, abs(fit.excess_deviation - samples.mobility_level_excess[row, column]) / scale)
             if row == column:
                 worst = max(worst, abs(value - samples.mobility[row, row]) / abs(samples.mobility[row, row]))
     return worst

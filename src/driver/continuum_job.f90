@@ -799,6 +799,7 @@ contains
       fit = extrapolate_to_zero(diameters, result%level_mobility(q, :), result%level_mobility_error(q, :), 0.0_dp)
       result%mobility(row, column) = fit%value
       result%mobility_error(row, column) = fit%error + abs(fit%value) * volume_power(q) / 3.0_dp * relative_volume_error
+      result%mobility_level_excess(row, column) = fit%excess_deviation
     end do
     do q = 1, 5
       fit = extrapolate_to_zero(diameters, result%level_coefficients(q, :), result%level_coefficient_error(q, :), 0.0_dp)
@@ -807,6 +808,7 @@ contains
       result%coefficient_standard_error(q) = fit%standard_error
       result%coefficient_linear(q) = fit%linear_value
       result%coefficient_reduced(q) = fit%reduced_value
+      result%coefficient_level_excess(q) = fit%excess_deviation
     end do
     result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))
     call invert(result%mobility, result%friction, err, 'the extrapolated mobility')

@@ -56,6 +56,9 @@ module beadmob_continuum_fit
     real(dp), allocatable :: level_coefficients(:, :), level_coefficient_error(:, :)
     !> The continuum values with their error bars; the linear and reduced fits' coefficients.
     real(dp) :: mobility(6, 6) = 0.0_dp, mobility_error(6, 6) = 0.0_dp, friction(6, 6) = 0.0_dp
+    !> Per entry: tau of the fit, the level means' scatter about the quadratic beyond their
+    !> standard errors (0: none; large against the bar: the means do not follow one smooth law in h)
+    real(dp) :: mobility_level_excess(6, 6) = 0.0_dp, coefficient_level_excess(5) = 0.0_dp
     real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
     real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
@@ -80,6 +83,7 @@ module beadmob_continuum_fit
     real(dp) :: linear_value = 0.0_dp   ! intercept of the line through the three finest levels
     real(dp) :: reduced_value = 0.0_dp  ! intercept of the quadratic without the coarsest level
     real(dp) :: slope = 0.0_dp          ! d value / d h at h = 0
+    real(dp) :: excess_deviation = 0.0_dp ! tau: how far the level means scatter beyond their standard errors
     real(dp) :: error = 0.0_dp          ! the error bar (module header)
   end type continuum_value_t
 
@@ -111,7 +115,8 @@ contains
                          1.0e-9_dp * abs(mean), sqrt(tiny(1.0_dp)))**2
     ! Levels that scatter more than that (a lattice resonance, a smooth law the quadratic misses)
     ! share the excess: weights 1 / (s_k^2 + tau^2), whose chi^2 then equals its degrees of freedom.
-    weights = 1.0_dp / (level_variance + excess_variance(h, mean, level_variance))
+    fit%excess_deviation = sqrt(excess_variance(h, mean, level_variance))
+    weights = 1.0_dp / (level_variance + fit%excess_deviation**2)
     call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
     fit%value = coefficients(1)
     fit%slope = coefficients(2)

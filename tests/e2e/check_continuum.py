@@ -8,7 +8,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    diameters are a factor 2**(1/3) apart; every sample is kept (levels x offsets), every solve
    converged; the continuum friction is the inverse of the continuum mobility; the volume from the
    moment fills is 4 pi / 3 within its standard error (4x); the continuum coefficients are numpy's
-   weighted quadratic fit of the level means (beadmob_post.continuum.quadratic_fit).
+   weighted quadratic fit of the level means (beadmob_post.continuum.quadratic_fit), and their
+   recorded excess scatter tau is scipy's root of the random-effects condition (level_excess).
 2. Stopped after three samples (-stop_after_solves 3, deterministic: a kill would race the job):
    no result file, a checkpoint of exactly three samples; the rerun says it resumes with them and gives the uninterrupted run's continuum values
    within 1e-3 of their error bars (the resumed samples are read back to the last bit, the others
@@ -31,7 +32,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
-from beadmob_post.continuum import load_continuum, quadratic_fit  # noqa: E402
+from beadmob_post.continuum import level_excess, load_continuum, quadratic_fit  # noqa: E402
 from checklist import check, failures  # noqa: E402
 
 SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
@@ -89,6 +90,10 @@ def main(beadmob, mpiexec, ranks, workdir):
                                     levels.level_coefficient_error[:, k])[0] for k in range(5)])
     check(np.allclose(refit, levels.coefficients, rtol=1e-8, atol=1e-10 * np.abs(refit).max()),
           f"the continuum coefficients are numpy's quadratic fit of the level means ({refit} vs {levels.coefficients})")
+    excess = np.array([level_excess(levels.bead_diameters, levels.level_coefficients[:, k],
+                                    levels.level_coefficient_error[:, k]) for k in range(5)])
+    check(np.allclose(excess, c["coefficient_level_excess"], rtol=1e-6, atol=1e-12 * np.abs(refit).max()),
+          f"the levels' excess scatter (tau) is scipy's root of chi^2 = K - 3 ({excess} vs {c['coefficient_level_excess']})")
 
     # The coefficients' frame: a small cone (axis z, mirror planes x and y on the lattice without
     # offset, none on the shifted ones) must keep the paper's pattern: mu11 = mu22 (axisymmetric)
