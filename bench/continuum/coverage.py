@@ -290,7 +290,7 @@ def analyse(body, form, folder):
         value, bar, fit = turned[i, i], replayed[i][1], replayed[i][2]
         row["entries"].append(dict(name=ENTRIES[i], exact=exact[i], value=value, bar=bar, linear_bar=linear[i],
                                    error=value - exact[i], spread=fit.model_spread, sigma=fit.standard_error,
-                                   chi2=fit.reduced_chi2,
+                                   chi2=fit.plain_reduced_chi2,
                                    volume_term=bar - fit.fit_error, power=entry_power(i, i)))
     if body.semi_axes is not None:
         exact_input = q @ np.diag(exact) @ q.T
@@ -411,8 +411,9 @@ def summary(rows):
              f"{len(every)} inside, median bar / error "
              f"{np.median([sum(part(e) for part in PARTS) / abs(e['error']) for e in every]):.2f}.\n")
     text += ("\nThe true error in units of the fit's sigma, |error| / sigma (a normal error would give a median of "
-             "0.67), and the quadratic's reduced chi^2 over the levels (1 when the level means scatter as their "
-             "standard errors from the offsets say; sigma is inflated by it when above 1), medians: "
+             "0.67), and the quadratic's reduced chi^2 over the levels with weights 1 / s_k^2 alone (1 when the level "
+             "means scatter as their standard errors from the offsets say; above 1 the fit adds the excess tau^2), "
+             "medians: "
              + "; ".join(f"{name} {np.median([abs(e['error']) / e['sigma'] for e in group]):.2f} and "
                          f"{np.median([e['chi2'] for e in group]):.2f}" for name, group in groups if group) + ".")
     linear = sum(abs(e["error"]) <= e["linear_bar"] for e in every)

@@ -47,12 +47,14 @@ equivalent ellipsoid (/continuum equivalent_axes, ordered by decreasing semi-axi
 is translation along a, r_a rotation about a), each with beadmob's estimator replayed on that
 entry (scripts/beadmob_post/continuum_bar.py: the samples turned, the level means and standard
 errors, the weighted quadratic in h) and the bar's three parts: 2 sigma (the fit's standard error,
-inflated by the reduced chi^2 of the quadratic when above 1), the model spread (the larger distance
+with the levels' random-effects excess tau^2 since be29465; before, inflated by the reduced chi^2
+of the quadratic when above 1), the model spread (the larger distance
 of the line through the three finest levels and of the quadratic without the coarsest level from
 the value) and the volume term (p / 3 * the volume's relative standard error * |value|); the bar is
 what continuum_bar.py's fit_error makes of the first two (their quadrature sum since 241d8d3, their
 sum before) plus the volume term. `chi2/dof`: the quadratic's reduced chi^2 over the level means
-(above 1: the levels scatter about the quadratic more than their standard errors say). Convergence
+with weights 1 / s_k^2 alone (above 1: the levels scatter about the quadratic more than their
+standard errors say, and the fit adds the excess tau^2). Convergence
 of the level means: the relative changes from the third-finest to the second-finest and from there
 to the finest level's mean, and the step from the finest level's mean to the continuum value.
 
@@ -526,7 +528,7 @@ def analyse(body, folder, result="job.h5"):
         projection = np.einsum("sjk,j,k->s", samples.sample_mobility, q[:, i], q[:, i])
         mean, _ = level_means(projection, samples.sample_level, len(samples.bead_diameters))
         entry = dict(name=ENTRIES[i], value=value, bar=bar, sigma2=2 * fit.standard_error, spread=fit.model_spread,
-                     volume_term=bar - fit.fit_error, chi2=getattr(fit, "reduced_chi2", float("nan")), means=mean,
+                     volume_term=bar - fit.fit_error, chi2=getattr(fit, "plain_reduced_chi2", float("nan")), means=mean,
                      changes=(mean[-2] / mean[-3] - 1, mean[-1] / mean[-2] - 1), step=value / mean[-1] - 1)
         if exact is not None:
             entry["exact"] = exact[i]

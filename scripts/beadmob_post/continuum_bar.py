@@ -40,6 +40,7 @@ class Extrapolation:
     reduced_value: float    # the quadratic without the coarsest level, at h = 0
     reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3; 1 with an excess)
     excess_deviation: float = 0.0        # tau: the levels' scatter beyond their standard errors
+    plain_reduced_chi2: float = float("nan")   # chi^2 / (K - 3) with weights 1 / s_k^2 alone (above 1: tau > 0)
 
     @property
     def model_spread(self) -> float:
@@ -120,6 +121,7 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     sigma = np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
                                np.full(n, np.sqrt(np.finfo(float).tiny))])
     excess = excess_variance(h, mean, sigma**2)
+    plain_chi2 = _weighted_polynomial(h, mean, 1.0 / sigma**2, 2)[2] / (n - 3) if n > 3 else float("nan")
     weights = 1.0 / (sigma**2 + excess)
     coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
     reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
@@ -131,7 +133,7 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
         kept = order[: n - 1]
         reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
     return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
-                         float(reduced_chi2), float(np.sqrt(excess)))
+                         float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2))
 
 
 def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
