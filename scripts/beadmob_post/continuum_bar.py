@@ -30,6 +30,10 @@ class ContinuumSamples:
     mobility: np.ndarray          # (6, 6) the file's continuum mobility (symmetrised)
     mobility_error: np.ndarray    # (6, 6) its error bar, [row, column] of the mobility
     mobility_level_excess: np.ndarray | None = None   # (6, 6) tau of each entry's fit (files since be29465)
+    #: with control samples (&continuum control_offsets > 0): 1 for a sample solved at order L, 0 for
+    #: a control sample (its sample_mobility NaN), and every sample's order L - 1 corrected mobility
+    sample_full: np.ndarray | None = None              # (S,)
+    sample_control_mobility: np.ndarray | None = None  # (S, 6, 6)
 
 
 @dataclass(frozen=True)
@@ -57,13 +61,21 @@ def read_samples(path: str | Path) -> ContinuumSamples:
     with h5py.File(path, "r") as f:
         c = f["continuum"]
         levels = np.asarray(c.attrs["sample_level"]).reshape(-1).astype(int)
-        rows = np.asarray(c["sample_mobility"][()], dtype=float)
-        if rows.shape != (len(levels), 36):
-            rows = rows.T
+
+        def per_sample(name):
+            rows = np.asarray(c[name][()], dtype=float)
+            if rows.shape != (len(levels), 36):
+                rows = rows.T
+            # Fortran writes a (6, 6) array per sample, columns first.
+            return np.stack([row.reshape(6, 6, order="F") for row in rows])
+
+        controlled = int(c.attrs.get("control_offsets", 0)) > 0
         # Fortran writes a (6, 6) array; h5py reads it transposed ([column, row]).
         return ContinuumSamples(
             bead_diameters=np.asarray(c["bead_diameters"][()], dtype=float), sample_level=levels,
-            sample_mobility=np.stack([row.reshape(6, 6, order="F") for row in rows]),
+            sample_mobility=per_sample("sample_mobility"),
+            sample_full=np.asarray(c.attrs["sample_full"]).reshape(-1).astype(int) if controlled else None,
+            sample_control_mobility=per_sample("sample_control_mobility") if controlled else None,
             volume=float(c.attrs["volume"]), volume_error=float(c.attrs["volume_standard_error"]),
             mobility=np.asarray(c["mobility"][()], dtype=float).T,
             mobility_error=np.asarray(c["mobility_error"][()], dtype=float).T,
@@ -79,6 +91,27 @@ def level_means(values: np.ndarray, sample_level: np.ndarray, levels: int) -> tu
         x = values[sample_level == k + 1]
         mean[k] = x.mean()
         error[k] = np.sqrt(np.sum((x - mean[k]) ** 2) / (len(x) - 1) / len(x)) if len(x) > 1 else 0.0
+    return mean, error
+
+
+def controlled_level_means(values: np.ndarray, controls: np.ndarray, full: np.ndarray, sample_level: np.ndarray,
+                           levels: int) -> tuple[np.ndarray, np.ndarray]:
+    """continuum_fit.f90's controlled_level_mean per level: the mean of values - controls over the
+    level's full samples plus the mean of controls over all its samples; variance var(y - x) / n +
+    max(var(x) + 2 cov(y - x, x), 0) / m (the covariance from the n pairs, var(x) from the m)."""
+    mean, error = np.zeros(levels), np.zeros(levels)
+    for k in range(levels):
+        level = sample_level == k + 1
+        pair = level & (full == 1)
+        y, x, x_all = values[pair], controls[pair], controls[level]
+        n, m = len(y), len(x_all)
+        difference = y - x
+        mean[k] = difference.mean() + x_all.mean()
+        if n < 2 or m < 2:
+            continue
+        covariance = np.sum((difference - difference.mean()) * (x - x.mean())) / (n - 1)
+        variance = np.var(difference, ddof=1) / n + max(np.var(x_all, ddof=1) + 2 * covariance, 0.0) / m
+        error[k] = np.sqrt(variance)
     return mean, error
 
 
@@ -140,8 +173,15 @@ def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) 
     """(value, error bar, the fit) of sum_jk weights[j, k] M[j, k] by beadmob's estimator; `power`:
     the combination scales as length^-power (1 translation, 2 coupling, 3 rotation), for the volume
     term p / 3 * (the volume's relative standard error) * |value|."""
-    values = np.einsum("sjk,jk->s", samples.sample_mobility, np.asarray(weights, dtype=float))
-    mean, error = level_means(values, samples.sample_level, len(samples.bead_diameters))
+    weights = np.asarray(weights, dtype=float)
+    if samples.sample_full is None:
+        values = np.einsum("sjk,jk->s", samples.sample_mobility, weights)
+        mean, error = level_means(values, samples.sample_level, len(samples.bead_diameters))
+    else:
+        full = samples.sample_full
+        values = np.einsum("sjk,jk->s", np.where(full[:, None, None] == 1, samples.sample_mobility, 0.0), weights)
+        controls = np.einsum("sjk,jk->s", samples.sample_control_mobility, weights)
+        mean, error = controlled_level_means(values, controls, full, samples.sample_level, len(samples.bead_diameters))
     fit = extrapolate(samples.bead_diameters, mean, error)
     bar = fit.fit_error + abs(fit.value) * power / 3.0 * samples.volume_error / samples.volume
     return fit.value, bar, fit
@@ -179,5 +219,5 @@ def replay_discrepancy(samples: ContinuumSamples) -> float:
     return worst
 
 
-__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "excess_variance", "extrapolate",
+__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "controlled_level_means", "excess_variance", "extrapolate",
            "combination_bar", "entry_power", "principal_diagonal", "replay_discrepancy"]

@@ -8,6 +8,7 @@
 !> checkpoint '<output>.continuum_checkpoint' (rewritten whole and renamed after each), so a
 !> killed job resumes with the samples it has; the result file holds them all.
 module beadmob_continuum_job
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use mpi, only: MPI_Bcast, MPI_INTEGER, MPI_DOUBLE_PRECISION, MPI_Wtime
   use beadmob_kinds, only: dp
   use beadmob_errors, only: error_t, raise
@@ -26,9 +27,10 @@ module beadmob_continuum_job
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
-  use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean
-  use beadmob_job_plan, only: job_plan_t
-  use beadmob_friction_job, only: friction_of_plan, friction_result_t
+  use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
+                                   controlled_level_mean
+  use beadmob_job_plan, only: job_plan_t, solve_rtol
+  use beadmob_friction_job, only: friction_of_plan, friction_result_t, companion_orders
   use beadmob_linear_flow, only: n_strain_modes, strain_rotation
   use beadmob_flow_response, only: free_body_response
   use beadmob_result_file, only: write_result_file
@@ -52,12 +54,20 @@ module beadmob_continuum_job
   !> Numbers per sample in the checkpoint (see pack_sample), and those a flow job adds (its grand
   !> resistance): a flow job's input, and so its checkpoint key, differs from any other's.
   integer, parameter :: sample_numbers = 60, flow_numbers = 121
+  !> Numbers a job with control samples adds per sample: 1 when solved at order L, the order L - 1 friction.
+  integer, parameter :: control_numbers = 37
+  !> A control solve's Krylov tolerance over the job's (control_settings).
+  real(dp), parameter :: control_tolerance_factor = 10.0_dp
 
   !> One solved bead model of the ladder (lengths in d unless said otherwise).
   type :: continuum_sample_t
     integer :: level = 0, offset_index = 0, beads = 0, iterations = 0, converged = 0
     real(dp) :: seconds = 0.0_dp, residual = 0.0_dp, bead_diameter = 0.0_dp, offset(3) = 0.0_dp
     real(dp) :: friction(6, 6) = 0.0_dp          ! about the beads' centre of mass
+    !> With control samples (&continuum control_offsets): .false. for a control sample, solved at
+    !> order L - 1 alone (friction then 0); `control` the order L - 1 friction of its beads.
+    logical :: full = .true.
+    real(dp) :: control(6, 6) = 0.0_dp
     !> A flow job's grand resistance (theory.md T19), about the same point; 0 otherwise
     real(dp) :: grand(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp
     type(body_moments_t) :: moments              ! in the shape's unit
@@ -84,7 +94,7 @@ module beadmob_continuum_job
     real(dp) :: thinnest = 0.0_dp, calibration = 1.0_dp
     type(lattice_turns_t) :: turns
     integer, allocatable :: beads(:)
-    real(dp), allocatable :: seconds(:)
+    real(dp), allocatable :: seconds(:), control_seconds(:)
   end type ladder_survey_t
 
 contains
@@ -114,7 +124,7 @@ contains
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
-    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, config%hydrodynamics%flow, finest, samples, err)
+    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, extra_numbers(config), finest, samples, err)
     if (err%failed) return
     ! A mesh is read and checked once; every fill of the job below uses it.
     if (config%shape%name == 'mesh') call read_mesh_once(ctx, config%shape, mesh, err)
@@ -175,11 +185,11 @@ contains
 
     solved_here = 0
     do level = 1, size(diameters)
-      do j = 1, config%continuum%offsets
+      do j = 1, config%continuum%offsets + config%continuum%control_offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
         samples = [samples, solve_sample(level, j, diameters(level))]
         if (err%failed) return
-        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, config%hydrodynamics%flow, &
+        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, extra_numbers(config), &
                                                                            diameters(size(diameters)), samples, err)
         call agree_on_error(ctx, err)
         if (err%failed) return
@@ -218,6 +228,8 @@ contains
 
     !> Collective. Sample j of level `level` (bead diameter d): the friction job with the run's
     !> settings (no error bar of its own: the ladder's scatter and extrapolation are this job's).
+    !> With control samples, j <= offsets also solves the control problem on the same beads
+    !> (control_settings) and j > offsets is a control sample, the control problem alone.
     function solve_sample(level, j, d) result(sample)
       integer, intent(in) :: level, j
       real(dp), intent(in) :: d
@@ -225,10 +237,10 @@ contains
       type(run_config_t) :: sample_config
       type(bead_model_t) :: sample_model
       type(body_frame_t) :: sample_frame
-      type(job_plan_t) :: plan
       type(friction_result_t) :: job_result
       real(dp) :: start, turn(6 + n_strain_modes, 6 + n_strain_modes)
       start = MPI_Wtime()
+      sample%full = j <= config%continuum%offsets
       sample_config = config
       call build_at(ctx, config, mesh, survey%turns, d, j, sample_model, err, sample_config)
       if (.not. err%failed .and. size(sample_model%centres, 2) < 2) &
@@ -239,35 +251,32 @@ contains
       if (.not. err%failed) call compute_body_frame(sample_model%centres, sample_frame, err)
       call agree_on_error(ctx, err)
       if (err%failed) return
-      associate (job => sample_config%hydrodynamics)
-        job%error_estimate = .false.
-        job%progress = .false.
-        job%checkpoint_file = ''
-        job%stop_after_solves = 0   ! counts samples here (run_continuum_job)
-        call plan_friction_job(ctx, sample_config, sample_model%centres, plan, err)
-        if (err%failed) return
-        job%shell_layers = plan%shell_layers
-        call friction_of_plan(ctx, job, plan, job_result, err)
-        if (err%failed) return
-      end associate
       sample%level = level
       sample%offset_index = j
       sample%beads = size(sample_model%centres, 2)
       sample%bead_diameter = d
       sample%offset = sample_config%shape%lattice_offset
+      sample%moments = moments_in_input_frame(sample_model%centres, d, survey%turns, j)
+      sample%converged = 1
       ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
       ! friction_job.F90 turns its solve axes back).
       turn = input_frame_turn(survey%turns, d, j)
-      sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
-      if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
-      sample%moments = moments_in_input_frame(sample_model%centres, d, survey%turns, j)
-      sample%iterations = sum(max(job_result%solves%iterations, 0))
-      sample%converged = merge(1, 0, all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0))
-      sample%residual = maxval(job_result%solves%true_relative_residual)
+      if (sample%full) then
+        call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err)
+        if (err%failed) return
+        sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
+        if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
+      end if
+      if (config%continuum%control_offsets > 0) then
+        call solve_friction(ctx, control_settings(sample_config), sample_model%centres, job_result, sample, err)
+        if (err%failed) return
+        sample%control = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
+      end if
       sample%seconds = MPI_Wtime() - start
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
         'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
-        sample%iterations, ' iterations, ', sample%seconds, ' s'
+        sample%iterations, ' iterations, ', sample%seconds, ' s' // either(sample%full, '', ' (control sample)')
+
     end function solve_sample
   end subroutine run_continuum_job
 
@@ -293,6 +302,12 @@ contains
     else if (config%continuum%turned_lattices .and. config%shape%name /= 'mesh') then
       call raise(err, "&continuum turned_lattices turns the body against the lattice, which beadmob does for " // &
                  "meshes only, not for shape '" // trim(config%shape%name) // "' (leave it out, or give the body as a mesh)")
+    else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%multipole_order < 2) then
+      call raise(err, '&continuum control_offsets solves order L - 1 beside order L: it needs multipole_order >= 2, got ' // &
+                 str(config%hydrodynamics%multipole_order))
+    else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%flow) then
+      call raise(err, '&continuum control_offsets corrects the mobility only, not a flow job''s strain solves: ' // &
+                 'leave it out with &hydrodynamics flow = .true.')
     end if
   end subroutine check_continuum_input
 
@@ -398,6 +413,34 @@ contains
     level_diameter = config%shape%bead_diameter * 2.0_dp**(k / 3.0_dp)
   end function level_diameter
 
+  !> Collective. The friction job of c on a sample's beads (centres, d units) into job_result; its
+  !> solves' record (iterations, convergence, largest residual) added to the sample's.
+  subroutine solve_friction(ctx, c, centres, job_result, sample, err)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: c
+    real(dp), intent(in) :: centres(:, :)
+    type(friction_result_t), intent(out) :: job_result
+    type(continuum_sample_t), intent(inout) :: sample
+    type(error_t), intent(inout) :: err
+    type(run_config_t) :: solved
+    type(job_plan_t) :: plan
+    solved = c
+    associate (job => solved%hydrodynamics)
+      job%error_estimate = .false.
+      job%progress = .false.
+      job%checkpoint_file = ''
+      job%stop_after_solves = 0   ! counts samples here (run_continuum_job)
+      call plan_friction_job(ctx, solved, centres, plan, err)
+      if (err%failed) return
+      job%shell_layers = plan%shell_layers
+      call friction_of_plan(ctx, job, plan, job_result, err)
+      if (err%failed) return
+    end associate
+    sample%iterations = sample%iterations + sum(max(job_result%solves%iterations, 0))
+    if (.not. all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0)) sample%converged = 0
+    sample%residual = max(sample%residual, maxval(job_result%solves%true_relative_residual))
+  end subroutine solve_friction
+
   !> Collective. The body's size before any level is filled: a mesh's exact volume and second
   !> moments (moments_of_polyhedron; the lattice turns' pivot and base axes set from them),
   !> another shape's from one geometry-only fill at the user's
@@ -453,7 +496,8 @@ contains
     survey%coarsest = min(floor(log(beads / minimum_coarsest_beads) / log(2.0_dp)), &
                           floor(3.0_dp * log(2.0_dp * survey%thinnest / d) / log(2.0_dp)))
     survey%finest = survey%coarsest - config%continuum%levels + 1 - ladder_span
-    allocate (survey%beads(survey%finest:survey%coarsest), survey%seconds(survey%finest:survey%coarsest))
+    allocate (survey%beads(survey%finest:survey%coarsest), survey%seconds(survey%finest:survey%coarsest), &
+              survey%control_seconds(survey%finest:survey%coarsest))
     survey%beads = -1
     survey%seconds = -1.0_dp
   end subroutine survey_body
@@ -494,24 +538,69 @@ contains
     type(error_t), intent(inout) :: refused, err
     type(run_config_t) :: c
     type(bead_model_t) :: model
-    type(job_plan_t) :: plan
     if (survey%seconds(k) >= 0.0_dp) return
     ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
     call build_at(ctx, config, mesh, survey%turns, level_diameter(config, k), 1, model, err, c)
     if (err%failed) return
     survey%beads(k) = size(model%centres, 2)
     survey%seconds(k) = 0.0_dp
+    survey%control_seconds(k) = 0.0_dp
     if (survey%beads(k) < minimum_coarsest_beads) return
+    call sample_estimates(ctx, c, model%centres, survey%seconds(k), survey%control_seconds(k), refused)
+    if (refused%failed) survey%seconds(k) = -2.0_dp
+  end subroutine survey_level
+
+  !> Collective. The dry run's estimate (s) of a sample of these beads (with control samples,
+  !> its order L - 1 companion included) and of a control sample (order L - 1 alone; 0 without
+  !> control samples); `refused` when the plan is (memory).
+  subroutine sample_estimates(ctx, sample_config, centres, seconds, control_seconds, refused)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: sample_config
+    real(dp), intent(in) :: centres(:, :)
+    real(dp), intent(out) :: seconds, control_seconds
+    type(error_t), intent(inout) :: refused
+    type(run_config_t) :: c
+    type(job_plan_t) :: plan
+    logical :: controlled
+    c = sample_config
     c%dry_run = .false.
     c%hydrodynamics%error_estimate = .false.
     c%hydrodynamics%progress = .false.
-    call plan_friction_job(ctx, c, model%centres, plan, refused)
-    if (refused%failed) then
-      survey%seconds(k) = -2.0_dp
-    else
-      survey%seconds(k) = plan%estimate%seconds_total
-    end if
-  end subroutine survey_level
+    seconds = 0.0_dp
+    control_seconds = 0.0_dp
+    call plan_friction_job(ctx, c, centres, plan, refused)
+    if (refused%failed) return
+    seconds = plan%estimate%seconds_total
+    if (sample_config%continuum%control_offsets == 0) return
+    call plan_friction_job(ctx, control_settings(c), centres, plan, refused)
+    if (refused%failed) return
+    control_seconds = plan%estimate%seconds_total
+    seconds = seconds + control_seconds
+  end subroutine sample_estimates
+
+  !> The control problem of a sample (docs/theory.md T18, "Control samples"): the friction job at
+  !> order L - 1 (companion_orders) with ten times the job's Krylov tolerance. Its solver error is
+  !> the same in every sample (measured: -0.22 % +- 0.002 % on a 3-D cross), so it cancels between
+  !> a level's paired and unpaired controls, and the looser solve halves the control's cost.
+  pure function control_settings(config) result(control)
+    type(run_config_t), intent(in) :: config
+    type(run_config_t) :: control
+    control = config
+    call companion_orders(config%hydrodynamics%multipole_order, config%hydrodynamics%potential_order, &
+                          control%hydrodynamics%multipole_order, control%hydrodynamics%potential_order)
+    control%hydrodynamics%krylov_rtol = control_tolerance_factor * solve_rtol(config%hydrodynamics)
+    control%hydrodynamics%krylov_rtol_on_command_line = .false.
+    control%hydrodynamics%error_estimate = .false.
+  end function control_settings
+
+  !> The estimated time (s) of level k's samples, ordinary and control.
+  pure real(dp) function level_seconds(config, survey, k)
+    type(run_config_t), intent(in) :: config
+    type(ladder_survey_t), intent(in) :: survey
+    integer, intent(in) :: k
+    level_seconds = config%continuum%offsets * survey%seconds(k) + &
+                    config%continuum%control_offsets * survey%control_seconds(k)
+  end function level_seconds
 
   !> Collective. The finest ladder whose levels all hold minimum_coarsest_beads (the coarsest
   !> is the fewest) and whose estimate times `calibration` fits the time budget. With none that
@@ -541,7 +630,7 @@ contains
         call survey_level(ctx, config, mesh, survey, k, refused, err)
         if (err%failed) return
         if (refused%failed) exit
-        total = total + config%continuum%offsets * calibration * survey%seconds(k)
+        total = total + calibration * level_seconds(config, survey, k)
       end do
       if (refused%failed) exit
       if (survey%beads(j + levels - 1) < minimum_coarsest_beads) cycle   ! foreseen, not found: go finer
@@ -591,8 +680,8 @@ contains
     type(error_t), intent(inout) :: err
     type(run_config_t) :: c
     type(bead_model_t) :: model
-    type(job_plan_t) :: plan
     type(error_t) :: refused
+    real(dp) :: seconds, control_seconds
     integer :: k, levels
     levels = config%continuum%levels
     diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
@@ -608,11 +697,9 @@ contains
                    diameter_text(level_diameter(config, survey%coarsest - levels + 1)))
         return
       end if
-      c%dry_run = .false.
-      c%hydrodynamics%error_estimate = .false.
-      c%hydrodynamics%progress = .false.
-      call plan_friction_job(ctx, c, model%centres, plan, refused)
-      if (.not. refused%failed) estimated_seconds = estimated_seconds + config%continuum%offsets * plan%estimate%seconds_total
+      call sample_estimates(ctx, c, model%centres, seconds, control_seconds, refused)
+      if (.not. refused%failed) estimated_seconds = estimated_seconds + config%continuum%offsets * seconds + &
+                                                    config%continuum%control_offsets * control_seconds
     end do
   end subroutine fixed_ladder
 
@@ -709,13 +796,17 @@ contains
     type(error_t), intent(inout) :: err
     type(mobility_result_t) :: mobility
     type(continuum_value_t) :: fit
-    real(dp) :: friction(6, 6), true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
-    real(dp) :: relative_volume_error, volume_power(41)
+    real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
+    real(dp) :: relative_volume_error, volume_power(41), ratio(6, 6), nan
     integer :: s, k, q, n, levels, row, column
-    integer, allocatable :: members(:)
+    integer, allocatable :: members(:), full_members(:)
+    logical :: controlled
 
     n = size(samples)
     levels = size(diameters)
+    nan = ieee_value(0.0_dp, ieee_quiet_nan)
+    controlled = config%continuum%control_offsets > 0
+    result%control_offsets = config%continuum%control_offsets
     result%offsets = config%continuum%offsets
     result%multipole_order = config%hydrodynamics%multipole_order
     result%moment_fills = config%continuum%moment_fills
@@ -738,6 +829,8 @@ contains
     result%flow = config%hydrodynamics%flow
     if (result%flow) allocate (result%sample_velocity_per_strain(6 * n_strain_modes, n), &
                                result%sample_stresslet_per_strain(n_strain_modes**2, n))
+    if (controlled) allocate (result%sample_full(n), result%sample_control_friction(36, n), &
+                              result%sample_control_mobility(36, n), result%sample_control_coefficients(5, n))
     do s = 1, n
       associate (p => samples(s), d => samples(s)%bead_diameter)
         result%sample_level(s) = p%level
@@ -753,22 +846,30 @@ contains
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
         scale = [d, d, d, d**2, d**2, d**2]
-        friction = p%friction * spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
+        ratio = spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
         ! The lattice's volume and shape of the body at this offset against the body's own: the
         ! ratio of the equivalent ellipsoids' exact frictions (both with a cell's d^2 / 12).
         call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
         if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
         if (err%failed) return
-        friction = scaled_by_ratio(friction, ellipsoid_friction(true_semi, true_axes), &
-                                   ellipsoid_friction(sample_semi, sample_axes))
-        friction = 0.5_dp * (friction + transpose(friction))
         if (result%flow) call sample_flow(p%grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
                                           ellipsoid_grand_resistance(sample_semi, sample_axes), &
                                           result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
-        call compute_mobility(friction, result%centroid, axes, result%reference_length, mobility, err)
+        if (p%full) then
+          call corrected_mobility(p%friction * ratio, result%sample_mobility(:, s), result%sample_coefficients(:, s))
+        else
+          result%sample_symmetry_error(s) = nan
+          result%sample_friction(:, s) = nan
+          result%sample_mobility(:, s) = nan
+          result%sample_coefficients(:, s) = nan
+        end if
+        if (controlled) then
+          result%sample_full(s) = merge(1, 0, p%full)
+          result%sample_control_friction(:, s) = reshape(p%control, [36])
+          call corrected_mobility(p%control * ratio, result%sample_control_mobility(:, s), &
+                                  result%sample_control_coefficients(:, s))
+        end if
         if (err%failed) return
-        result%sample_mobility(:, s) = reshape(mobility%mobility, [36])
-        result%sample_coefficients(:, s) = mobility%coefficients
       end associate
     end do
 
@@ -785,6 +886,24 @@ contains
     volume_power(37:41) = [1, 1, 1, 2, 2]
     do k = 1, levels
       members = pack([(s, s = 1, n)], result%sample_level == k)
+      full_members = pack(members, samples(members)%full)
+      if (controlled) then
+        ! The order L - 1 solves as a control variate (T18): their mean over all the level's samples
+        ! corrects the mean over the full ones.
+        do q = 1, 36
+          call controlled_level_mean(result%sample_mobility(q, full_members), &
+                                     result%sample_control_mobility(q, full_members), &
+                                     result%sample_control_mobility(q, members), result%level_mobility(q, k), &
+                                     result%level_mobility_error(q, k))
+        end do
+        do q = 1, 5
+          call controlled_level_mean(result%sample_coefficients(q, full_members), &
+                                     result%sample_control_coefficients(q, full_members), &
+                                     result%sample_control_coefficients(q, members), result%level_coefficients(q, k), &
+                                     result%level_coefficient_error(q, k))
+        end do
+        cycle
+      end if
       do q = 1, 36
         call level_mean(result%sample_mobility(q, members), result%level_mobility(q, k), result%level_mobility_error(q, k))
       end do
@@ -815,6 +934,24 @@ contains
     if (result%flow) call flow_values()
 
   contains
+
+    !> A sample's friction (shape units) corrected by the ratio of the body's and the sample's
+    !> equivalent ellipsoids (true_* and sample_* of the loop above), as mobility and coefficients.
+    subroutine corrected_mobility(solved, sample_mobility, sample_coefficients)
+      real(dp), intent(in) :: solved(6, 6)
+      real(dp), intent(out) :: sample_mobility(36), sample_coefficients(5)
+      real(dp) :: corrected(6, 6)
+      sample_mobility = nan
+      sample_coefficients = nan
+      if (err%failed) return
+      corrected = scaled_by_ratio(solved, ellipsoid_friction(true_semi, true_axes), &
+                                  ellipsoid_friction(sample_semi, sample_axes))
+      corrected = 0.5_dp * (corrected + transpose(corrected))
+      call compute_mobility(corrected, result%centroid, axes, result%reference_length, mobility, err)
+      if (err%failed) return
+      sample_mobility = reshape(mobility%mobility, [36])
+      sample_coefficients = mobility%coefficients
+    end subroutine corrected_mobility
 
     !> The flow's response (theory.md T19) extrapolated entry by entry as the mobility's: the
     !> velocity per strain (translation ~ length, rotation ~ length^0) and the stresslet per strain
@@ -935,7 +1072,9 @@ contains
     type(continuum_result_t), intent(in) :: c
     integer :: k
     write (*, '(a)') 'beadmob: continuum of shape ' // trim(config%shape%name) // ': ' // str(size(c%bead_diameters)) // &
-      ' levels x ' // str(c%offsets) // ' offsets, ' // str(sum(c%sample_beads)) // ' beads solved in all'
+      ' levels x ' // str(c%offsets) // ' offsets' // either(c%control_offsets > 0, ' (+ ' // str(c%control_offsets) // &
+      ' control offsets of order ' // str(c%multipole_order - 1) // ')', '') // ', ' // str(sum(c%sample_beads)) // &
+      ' beads solved in all'
     write (*, '(a, es12.5, a, es9.2, a)') '  volume ', c%volume, ' (+-', c%volume_error, '), equivalent ellipsoid'
     write (*, '(4x, 3es12.4)') c%semi_axes
     write (*, '(a)') '  level  bead diameter     mu11      mu22      mu33      mu42      mu51'
@@ -951,10 +1090,10 @@ contains
 
   !> The samples of a checkpoint whose key is the run's (rank 0 reads, all ranks get them); a
   !> checkpoint of another input is ignored with a note, a damaged one is an error.
-  subroutine read_checkpoint(ctx, path, key, flow, finest, samples, err)
+  subroutine read_checkpoint(ctx, path, key, extra, finest, samples, err)
     type(run_context_t), intent(in) :: ctx
     character(len=*), intent(in) :: path, key
-    logical, intent(in) :: flow
+    integer, intent(in) :: extra
     real(dp), intent(out) :: finest
     type(continuum_sample_t), allocatable, intent(inout) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -964,7 +1103,7 @@ contains
     logical :: exists
     integer :: unit, status, n, s, ierr, width
     real(dp), allocatable :: values(:)
-    width = sample_numbers + merge(flow_numbers, 0, flow)
+    width = sample_numbers + extra
     allocate (values(width))
     n = 0
     finest = -1.0_dp
@@ -1021,9 +1160,9 @@ contains
 
   !> Rank 0: every sample so far to '<path>.tmp', renamed over the checkpoint (a kill while
   !> writing leaves the previous one whole).
-  subroutine write_checkpoint(path, key, flow, finest, samples, err)
+  subroutine write_checkpoint(path, key, extra, finest, samples, err)
     character(len=*), intent(in) :: path, key
-    logical, intent(in) :: flow
+    integer, intent(in) :: extra
     real(dp), intent(in) :: finest
     type(continuum_sample_t), intent(in) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -1031,23 +1170,34 @@ contains
     open (newunit=unit, file=path // '.tmp', status='replace', action='write', iostat=status)
     if (status == 0) write (unit, '(a, 1x, a, 1x, es25.17e3)', iostat=status) checkpoint_header, key, finest
     do s = 1, size(samples)
-      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s), flow)
+      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s), extra)
     end do
     if (status == 0) close (unit, iostat=status)
     if (status /= 0 .or. .not. rename_file(path // '.tmp', path)) &
       call raise(err, "cannot write the continuum checkpoint '" // path // "' (&run checkpoint = .false. runs without one)")
   end subroutine write_checkpoint
 
+  !> The numbers a sample has in the checkpoint beyond the sample_numbers every job's has: a
+  !> flow job's grand resistance, a controlled job's order L - 1 friction (the two exclude each other).
+  pure integer function extra_numbers(config)
+    type(run_config_t), intent(in) :: config
+    extra_numbers = 0
+    if (config%hydrodynamics%flow) extra_numbers = flow_numbers
+    if (config%continuum%control_offsets > 0) extra_numbers = control_numbers
+  end function extra_numbers
+
   !> level, offset index, beads, iterations, converged, seconds, residual, d, offset(3),
-  !> friction(36), volume, first(3), second(9): 60 numbers.
-  pure function pack_sample(p, flow) result(values)
+  !> friction(36), volume, first(3), second(9): 60 numbers; then the `extra` numbers
+  !> (extra_numbers): the grand resistance (121), or 1 for a full sample and the control friction (37).
+  pure function pack_sample(p, extra) result(values)
     type(continuum_sample_t), intent(in) :: p
-    logical, intent(in) :: flow
+    integer, intent(in) :: extra
     real(dp), allocatable :: values(:)
     values = [real(p%level, dp), real(p%offset_index, dp), real(p%beads, dp), real(p%iterations, dp), &
               real(p%converged, dp), p%seconds, p%residual, p%bead_diameter, p%offset, reshape(p%friction, [36]), &
               p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
-    if (flow) values = [values, reshape(p%grand, [flow_numbers])]
+    if (extra == flow_numbers) values = [values, reshape(p%grand, [flow_numbers])]
+    if (extra == control_numbers) values = [values, merge(1.0_dp, 0.0_dp, p%full), reshape(p%control, [36])]
   end function pack_sample
 
   pure function unpack_sample(values) result(p)
@@ -1066,8 +1216,12 @@ contains
     p%moments%volume = values(48)
     p%moments%first = values(49:51)
     p%moments%second = reshape(values(52:60), [3, 3])
-    if (size(values) > sample_numbers) p%grand = reshape(values(sample_numbers + 1:sample_numbers + flow_numbers), &
-                                                         shape(p%grand))
+    if (size(values) == sample_numbers + flow_numbers) &
+      p%grand = reshape(values(sample_numbers + 1:sample_numbers + flow_numbers), shape(p%grand))
+    if (size(values) == sample_numbers + control_numbers) then
+      p%full = values(sample_numbers + 1) > 0.5_dp
+      p%control = reshape(values(sample_numbers + 2:sample_numbers + control_numbers), [6, 6])
+    end if
   end function unpack_sample
 
 

@@ -15,7 +15,7 @@ module beadmob_continuum_fit
   use beadmob_kinds, only: dp
   implicit none
   private
-  public :: continuum_value_t, extrapolate_to_zero, level_mean, continuum_result_t
+  public :: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean, continuum_result_t
 
   !> What a continuum job found (written to the result file's /continuum group, docs/output.md):
   !> the ladder, every solved sample, each level's means and the continuum values. Lengths in
@@ -51,6 +51,14 @@ module beadmob_continuum_fit
     logical :: turned_lattices = .false.
     real(dp) :: lattice_pivot(3) = 0.0_dp
     real(dp), allocatable :: sample_lattice_axes(:, :)
+    !> With control samples (control_offsets > 0, T18): per sample 1 when solved at the job's
+    !> order (its order L - 1 companion beside it), 0 for a control sample (order L - 1 alone: its
+    !> sample_friction, sample_mobility and sample_coefficients are NaN); the order L - 1 friction,
+    !> corrected mobility and coefficients of every sample, as the order-L ones above.
+    integer :: control_offsets = 0
+    integer, allocatable :: sample_full(:)
+    real(dp), allocatable :: sample_control_friction(:, :), sample_control_mobility(:, :)
+    real(dp), allocatable :: sample_control_coefficients(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.
     real(dp), allocatable :: level_mobility(:, :), level_mobility_error(:, :)
     real(dp), allocatable :: level_coefficients(:, :), level_coefficient_error(:, :)
@@ -99,6 +107,33 @@ contains
     standard_error = 0.0_dp
     if (n > 1) standard_error = sqrt(sum((samples - mean)**2) / (n - 1) / n)
   end subroutine level_mean
+
+  !> A level's mean of y with a control variate x (docs/theory.md T18): y and x_paired on the
+  !> same n samples (order L and its order L - 1 companion on the same beads), x_all on all m
+  !> samples of the level (the n among them). The mean of y - x over the n plus the mean of x over
+  !> the m is unbiased for the level's offset average of y, and where y - x scatters far less than
+  !> y it has nearly the standard error of x's mean over m; its variance
+  !>     var(y - x) / n + (var(x) + 2 cov(y - x, x)) / m,
+  !> the covariance from the n pairs (each of the n is one of the m), var(x) from the m.
+  pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error)
+    real(dp), intent(in) :: y(:), x_paired(:), x_all(:)
+    real(dp), intent(out) :: mean, standard_error
+    real(dp) :: difference(size(y)), difference_mean, x_mean, variance
+    integer :: n, m
+    n = size(y)
+    m = size(x_all)
+    difference = y - x_paired
+    difference_mean = sum(difference) / n
+    x_mean = sum(x_all) / m
+    mean = difference_mean + x_mean
+    standard_error = 0.0_dp
+    if (n < 2 .or. m < 2) return
+    variance = sum((difference - difference_mean)**2) / (n - 1) / n
+    variance = variance + max(sum((x_all - x_mean)**2) / (m - 1) + &
+                              2.0_dp * sum((difference - difference_mean) * (x_paired - sum(x_paired) / n)) / (n - 1), &
+                              0.0_dp) / m
+    standard_error = sqrt(variance)
+  end subroutine controlled_level_mean
 
   !> The extrapolation of (h_k, mean_k +- standard_error_k), k = 1..K (K >= 3, any order of h);
   !> `extra` is added to the error bar.

@@ -63,6 +63,10 @@ module beadmob_input_config
     !> of the body stays along the lattice (docs/theory.md T18).
     logical :: turned_lattices = .false.
     real(dp) :: turn_angle = 15.0_dp
+    !> Control samples per level: offsets beyond `offsets` solved at order L - 1 alone, whose mean
+    !> corrects the level's (the `offsets` samples also solve order L - 1 on their beads: a
+    !> control variate, docs/theory.md T18); 0: none.
+    integer :: control_offsets = 0
   end type continuum_settings_t
 
   type :: run_config_t
@@ -138,11 +142,11 @@ contains
     type(continuum_settings_t), intent(inout) :: settings
     type(error_t), intent(inout) :: err
     real(dp) :: time_budget, finest_bead_diameter, turn_angle
-    integer :: levels, offsets, moment_fills, status
+    integer :: levels, offsets, moment_fills, control_offsets, status
     logical :: turned_lattices
     character(len=512) :: message
     namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices, &
-                         turn_angle
+                         turn_angle, control_offsets
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -153,6 +157,7 @@ contains
     finest_bead_diameter = settings%finest_bead_diameter
     turned_lattices = settings%turned_lattices
     turn_angle = settings%turn_angle
+    control_offsets = settings%control_offsets
     read (lines, nml=continuum, iostat=status, iomsg=message)
     if (status > 0) then
       call raise(err, namelist_error(lines, source, 'continuum', message))
@@ -172,11 +177,14 @@ contains
       call raise(err, source // ': &continuum finest_bead_diameter must be positive, got ' // str(finest_bead_diameter))
     else if (.not. (turn_angle > 0.0_dp .and. turn_angle <= 180.0_dp)) then
       call raise(err, source // ': &continuum turn_angle must be in (0, 180] degrees, got ' // str(turn_angle))
+    else if (control_offsets < 0 .or. control_offsets > 256) then
+      call raise(err, source // ': &continuum control_offsets must be 0 to 256, got ' // str(control_offsets))
     end if
     if (err%failed) return
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
                                     moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
-                                    turned_lattices=turned_lattices, turn_angle=turn_angle)
+                                    turned_lattices=turned_lattices, turn_angle=turn_angle, &
+                                    control_offsets=control_offsets)
   end subroutine read_continuum_group
 
   subroutine read_run_group(lines, source, config, err)
@@ -549,6 +557,8 @@ contains
         write (line, '(a, es23.16)') '  turn_angle = ', config%continuum%turn_angle
         text = text // '  turned_lattices = .true. ' // new_line('a') // trim(line) // new_line('a')
       end if
+      if (config%continuum%control_offsets > 0) text = text // '  control_offsets = ' // &
+                                                       str(config%continuum%control_offsets) // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

@@ -435,6 +435,14 @@ contains
     call write_replicated_dataset(ctx, group, 'coefficients_without_coarsest', c%coefficient_reduced, err)
     call write_replicated_dataset(ctx, group, 'mobility_level_excess', transpose(c%mobility_level_excess), err)
     call write_replicated_dataset(ctx, group, 'coefficient_level_excess', c%coefficient_level_excess, err)
+    call write_attribute(group, 'control_offsets', c%control_offsets, err)
+    if (c%control_offsets > 0) then
+      ! The control variate's samples (theory.md T18): order L - 1 on every sample's beads.
+      call write_attribute(group, 'sample_full', c%sample_full, err)
+      call write_replicated_dataset(ctx, group, 'sample_control_friction', c%sample_control_friction, err)
+      call write_replicated_dataset(ctx, group, 'sample_control_mobility', c%sample_control_mobility, err)
+      call write_replicated_dataset(ctx, group, 'sample_control_coefficients', c%sample_control_coefficients, err)
+    end if
     call write_attribute(group, 'flow', merge(1, 0, c%flow), err)
     if (c%flow) then
       ! The flow's response (theory.md T19), extrapolated as the mobility is; C-order readers see

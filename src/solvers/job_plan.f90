@@ -22,7 +22,7 @@ module beadmob_job_plan
   use beadmob_strings, only: str, str_significant
   implicit none
   private
-  public :: job_plan_t, make_job_plan, choose_operator, operator_spans, requested_accuracy, operator_share
+  public :: job_plan_t, make_job_plan, choose_operator, operator_spans, requested_accuracy, operator_share, solve_rtol
 
   !> Models of at most this many beads get the dense operator under 'auto' (choose_operator).
   integer, parameter :: dense_max_beads = 8

@@ -21,7 +21,13 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    an analytic shape (beadmob turns meshes only).
 5. --estimate prints the ladder and writes nothing.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
-   mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes."""
+   mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
+7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
+   against Stokes; per level 2 samples solved at L = 2 and 3 control samples at L = 1 (their
+   order-L values NaN, their controls finite, lower order solves faster per sample); each level's
+   mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
+   after three samples (the third a control sample) and resumed, the same values within 1e-3 of
+   the bars. Refused: control_offsets with multipole_order = 1, with flow, below 0."""
 import math
 import os
 import subprocess
@@ -164,6 +170,51 @@ def main(beadmob, mpiexec, ranks, workdir):
         (SPHERE + "&continuum turned_lattices = .true. /\n", "for meshes only, not for shape 'sphere'"),
     ]
     for body, expected in refusals:
+        nml = write_input(workdir, "refused.nml", "refused.h5", body)
+        done = run(beadmob, mpiexec, ranks, workdir, nml)
+        check(done.returncode != 0 and expected in done.stderr + done.stdout and not (Path(workdir) / "refused.h5").exists(),
+              f"refused ({expected!r}): exit {done.returncode}, {(done.stderr.strip().splitlines() or [''])[-1]!r}")
+
+    # 7. Control samples.
+    controlled_ladder = "&continuum levels = 4, offsets = 2, control_offsets = 3, finest_bead_diameter = 0.16 /\n"
+    nml = write_input(workdir, "controlled.nml", "controlled.h5", SPHERE + controlled_ladder)
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    if done.returncode != 0:
+        sys.exit(f"the controlled continuum job failed:\n{done.stdout}\n{done.stderr}")
+    cc = continuum(Path(workdir) / "controlled.h5")
+    deviation = np.abs(np.diag(cc["mobility"]) - exact)
+    check(np.all(deviation <= np.diag(cc["mobility_error"])),
+          f"controlled sphere: |continuum - Stokes| {deviation / exact} within the bar {np.diag(cc['mobility_error']) / exact}")
+    full = np.asarray(cc["sample_full"]).reshape(-1)
+    level = np.asarray(cc["sample_level"]).reshape(-1)
+    check(len(level) == 20 and all(sorted(full[level == k]) == [0, 0, 0, 1, 1] for k in range(1, 5)),
+          f"controlled: per level 2 full samples and 3 control samples (levels {level}, full {full})")
+    mobility, control = (np.asarray(cc[name]).reshape(len(level), 36) for name in ("sample_mobility", "sample_control_mobility"))
+    check(np.all(np.isnan(mobility[full == 0])) and np.all(np.isfinite(mobility[full == 1]))
+          and np.all(np.isfinite(control)) and cc["control_offsets"] == 3,
+          "controlled: control samples have no order-L values (NaN), every sample its order-L - 1 control")
+    means = np.array([(mobility[(level == k) & (full == 1)] - control[(level == k) & (full == 1)]).mean(0)
+                      + control[level == k].mean(0) for k in range(1, 5)])
+    check(np.allclose(means, np.asarray(cc["level_mobility"]).reshape(4, 36), rtol=1e-12, atol=1e-15),
+          "controlled: each level's mean is mean(y - x) over the full samples + mean(x) over all")
+    seconds = np.asarray(cc["sample_seconds"]).reshape(-1)
+    check(np.median(seconds[(full == 0) & (level == 4)]) < np.median(seconds[(full == 1) & (level == 4)]),
+          "controlled: a control sample (order 1 alone) is cheaper than a full one (order 2 and its companion)")
+    checkpoint = Path(workdir) / "controlled_stopped.h5.continuum_checkpoint"
+    checkpoint.unlink(missing_ok=True)
+    nml = write_input(workdir, "controlled_stopped.nml", "controlled_stopped.h5", SPHERE + controlled_ladder)
+    stopped = run(beadmob, mpiexec, ranks, workdir, nml, "-stop_after_solves", "3")
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    resumed = continuum(Path(workdir) / "controlled_stopped.h5") if done.returncode == 0 else None
+    check(stopped.returncode != 0 and "resuming with 3 samples" in done.stdout and resumed is not None
+          and np.all(np.abs(resumed["mobility"] - cc["mobility"]) <= 1e-3 * cc["mobility_error"]),
+          "controlled: stopped after three samples (one a control sample) and resumed, the same values")
+    for body, expected in (
+            ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics multipole_order = 1 /\n"
+             + controlled_ladder, "needs multipole_order >= 2"),
+            ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics flow = .true. /\n"
+             + controlled_ladder, "with &hydrodynamics flow = .true."),
+            (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256")):
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
         done = run(beadmob, mpiexec, ranks, workdir, nml)
         check(done.returncode != 0 and expected in done.stderr + done.stdout and not (Path(workdir) / "refused.h5").exists(),

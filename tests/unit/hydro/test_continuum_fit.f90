@@ -10,7 +10,7 @@ program test_continuum_fit
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, carlson_rf, carlson_rd
-  use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean
+  use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp)
   type(test_suite_t) :: suite
@@ -86,5 +86,20 @@ program test_continuum_fit
   call level_mean([1.0_dp, 2.0_dp, 3.0_dp, 4.0_dp], mean, error)
   call check_close(suite, mean, 2.5_dp, 1.0e-15_dp, 'level mean')
   call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-15_dp, 'level standard error')
+  ! The control variate (theory.md T18). A control that differs from y by a constant on the two
+  ! paired samples: y - x has no scatter, so the level's mean is that constant plus the controls'
+  ! mean over all six, with the standard error of that mean alone (sd / sqrt(6)).
+  call controlled_level_mean([11.0_dp, 14.0_dp], [1.0_dp, 4.0_dp], [1.0_dp, 4.0_dp, 2.0_dp, 3.0_dp, 5.0_dp, 6.0_dp], &
+                             mean, error)
+  call check_close(suite, mean, 10.0_dp + 3.5_dp, 1.0e-14_dp, 'controlled mean: constant difference')
+  call check_close(suite, error, sqrt(17.5_dp / 5.0_dp / 6.0_dp), 1.0e-14_dp, &
+                   'controlled mean: the standard error of the controls'' mean')
+  ! A control that carries no information (the same value on every sample): the plain mean of y
+  ! and its standard error.
+  call controlled_level_mean([1.0_dp, 2.0_dp, 3.0_dp, 4.0_dp], [7.0_dp, 7.0_dp, 7.0_dp, 7.0_dp], [(7.0_dp, k = 1, 9)], &
+                             mean, error)
+  call check_close(suite, mean, 2.5_dp, 1.0e-14_dp, 'controlled mean: a constant control changes nothing')
+  call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-14_dp, &
+                   'controlled mean: nor its standard error')
   call finish_tests(suite)
 end program test_continuum_fit
