@@ -83,7 +83,7 @@ from continuum_jobs import ENV, RANKS, ROOT
 from coverage import icosphere
 
 sys.path.insert(0, str(ROOT / "scripts"))
-from beadmob_post.continuum_bar import (combination_bar, entry_power, level_means, principal_diagonal,  # noqa: E402
+from beadmob_post.continuum_bar import (combination_bar, combination_level_means, entry_power, principal_diagonal,  # noqa: E402
                                         read_samples)
 from beadmob_post.ellipsoid import ellipsoid_friction  # noqa: E402
 
@@ -461,7 +461,7 @@ def replay_check(samples):
     rounding. (Largest relative difference of the replayed bars and diagonal values from the
     file's, entries compared.)"""
     worst, compared = 0.0, 0
-    scale = np.max(np.abs(np.diagonal(samples.sample_mobility, axis1=1, axis2=2)))
+    scale = np.nanmax(np.abs(np.diagonal(samples.sample_mobility, axis1=1, axis2=2)))   # NaN: control samples
     for row in range(6):
         for column in range(6):
             if abs(samples.mobility[row, column]) < 1e-4 * scale:
@@ -525,8 +525,7 @@ def analyse(body, folder, result="job.h5"):
     exact = body.exact_diagonal()
     row["entries"] = []
     for i, (value, bar, fit) in enumerate(principal_diagonal(samples, rotation)):
-        projection = np.einsum("sjk,j,k->s", samples.sample_mobility, q[:, i], q[:, i])
-        mean, _ = level_means(projection, samples.sample_level, len(samples.bead_diameters))
+        mean, _ = combination_level_means(samples, np.outer(q[:, i], q[:, i]))
         entry = dict(name=ENTRIES[i], value=value, bar=bar, sigma2=2 * fit.standard_error, spread=fit.model_spread,
                      volume_term=bar - fit.fit_error, chi2=getattr(fit, "plain_reduced_chi2", float("nan")), means=mean,
                      changes=(mean[-2] / mean[-3] - 1, mean[-1] / mean[-2] - 1), step=value / mean[-1] - 1)

@@ -169,19 +169,25 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
                          float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2))
 
 
+def combination_level_means(samples: ContinuumSamples, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each level's mean of sum_jk weights[j, k] M[j, k] and its standard error, as beadmob makes
+    them: the plain mean over the level's samples, or with control samples the controlled mean."""
+    weights = np.asarray(weights, dtype=float)
+    levels = len(samples.bead_diameters)
+    if samples.sample_full is None:
+        values = np.einsum("sjk,jk->s", samples.sample_mobility, weights)
+        return level_means(values, samples.sample_level, levels)
+    full = samples.sample_full
+    values = np.einsum("sjk,jk->s", np.where(full[:, None, None] == 1, samples.sample_mobility, 0.0), weights)
+    controls = np.einsum("sjk,jk->s", samples.sample_control_mobility, weights)
+    return controlled_level_means(values, controls, full, samples.sample_level, levels)
+
+
 def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
     """(value, error bar, the fit) of sum_jk weights[j, k] M[j, k] by beadmob's estimator; `power`:
     the combination scales as length^-power (1 translation, 2 coupling, 3 rotation), for the volume
     term p / 3 * (the volume's relative standard error) * |value|."""
-    weights = np.asarray(weights, dtype=float)
-    if samples.sample_full is None:
-        values = np.einsum("sjk,jk->s", samples.sample_mobility, weights)
-        mean, error = level_means(values, samples.sample_level, len(samples.bead_diameters))
-    else:
-        full = samples.sample_full
-        values = np.einsum("sjk,jk->s", np.where(full[:, None, None] == 1, samples.sample_mobility, 0.0), weights)
-        controls = np.einsum("sjk,jk->s", samples.sample_control_mobility, weights)
-        mean, error = controlled_level_means(values, controls, full, samples.sample_level, len(samples.bead_diameters))
+    mean, error = combination_level_means(samples, weights)
     fit = extrapolate(samples.bead_diameters, mean, error)
     bar = fit.fit_error + abs(fit.value) * power / 3.0 * samples.volume_error / samples.volume
     return fit.value, bar, fit
@@ -219,5 +225,5 @@ def replay_discrepancy(samples: ContinuumSamples) -> float:
     return worst
 
 
-__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "controlled_level_means", "excess_variance", "extrapolate",
+__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "controlled_level_means", "combination_level_means", "excess_variance", "extrapolate",
            "combination_bar", "entry_power", "principal_diagonal", "replay_discrepancy"]
