@@ -4,7 +4,9 @@
 !> run's estimates; at each, the friction job on `offsets` bead models of the same body on
 !> lattices shifted by sub-lattice offsets; each sample corrected for the volume and shape its
 !> lattice gave the body (the exact friction of the equivalent ellipsoids); the level means
-!> extrapolated to zero bead size (continuum_fit.f90). Every solved sample is kept in a text
+!> extrapolated to zero bead size (continuum_fit.f90); with control_offsets, order L - 1 solves on
+!> every sample's beads and on further offsets correct each level's mean (a control variate,
+!> theory.md T18 "Control samples"). Every solved sample is kept in a text
 !> checkpoint '<output>.continuum_checkpoint' (rewritten whole and renamed after each), so a
 !> killed job resumes with the samples it has; the result file holds them all.
 module beadmob_continuum_job
@@ -550,9 +552,9 @@ contains
     if (refused%failed) survey%seconds(k) = -2.0_dp
   end subroutine survey_level
 
-  !> Collective. The dry run's estimate (s) of a sample of these beads (with control samples,
-  !> its order L - 1 companion included) and of a control sample (order L - 1 alone; 0 without
-  !> control samples); `refused` when the plan is (memory).
+  !> Collective. The dry run's estimate (s) of a sample of these beads (with control samples, its
+  !> control solve included) and of a control sample (control_settings alone; 0 without control
+  !> samples); `refused` when the plan is (memory).
   subroutine sample_estimates(ctx, sample_config, centres, seconds, control_seconds, refused)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: sample_config
@@ -561,7 +563,6 @@ contains
     type(error_t), intent(inout) :: refused
     type(run_config_t) :: c
     type(job_plan_t) :: plan
-    logical :: controlled
     c = sample_config
     c%dry_run = .false.
     c%hydrodynamics%error_estimate = .false.
@@ -798,7 +799,7 @@ contains
     type(mobility_result_t) :: mobility
     type(continuum_value_t) :: fit
     real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
-    real(dp) :: relative_volume_error, volume_power(41), ratio(6, 6), nan
+    real(dp) :: relative_volume_error, volume_power(41), to_shape_units(6, 6), nan
     integer :: s, k, q, n, levels, row, column
     integer, allocatable :: members(:), full_members(:)
     logical :: controlled
@@ -847,7 +848,7 @@ contains
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
         scale = [d, d, d, d**2, d**2, d**2]
-        ratio = spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
+        to_shape_units = spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
         ! The lattice's volume and shape of the body at this offset against the body's own: the
         ! ratio of the equivalent ellipsoids' exact frictions (both with a cell's d^2 / 12).
         call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
@@ -857,7 +858,7 @@ contains
                                           ellipsoid_grand_resistance(sample_semi, sample_axes), &
                                           result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
         if (p%full) then
-          call corrected_mobility(p%friction * ratio, result%sample_mobility(:, s), result%sample_coefficients(:, s))
+          call corrected_mobility(p%friction * to_shape_units, result%sample_mobility(:, s), result%sample_coefficients(:, s))
         else
           result%sample_symmetry_error(s) = nan
           result%sample_friction(:, s) = nan
@@ -867,7 +868,7 @@ contains
         if (controlled) then
           result%sample_full(s) = merge(1, 0, p%full)
           result%sample_control_friction(:, s) = reshape(p%control, [36])
-          call corrected_mobility(p%control * ratio, result%sample_control_mobility(:, s), &
+          call corrected_mobility(p%control * to_shape_units, result%sample_control_mobility(:, s), &
                                   result%sample_control_coefficients(:, s))
         end if
         if (err%failed) return
@@ -889,29 +890,16 @@ contains
       members = pack([(s, s = 1, n)], result%sample_level == k)
       full_members = pack(members, samples(members)%full)
       if (controlled) then
-        ! The order L - 1 solves as a control variate (T18): their mean over all the level's samples
-        ! corrects the mean over the full ones.
-        do q = 1, 36
-          call controlled_level_mean(result%sample_mobility(q, full_members), &
-                                     result%sample_control_mobility(q, full_members), &
-                                     result%sample_control_mobility(q, members), result%level_mobility(q, k), &
-                                     result%level_mobility_error(q, k))
-        end do
-        do q = 1, 5
-          call controlled_level_mean(result%sample_coefficients(q, full_members), &
-                                     result%sample_control_coefficients(q, full_members), &
-                                     result%sample_control_coefficients(q, members), result%level_coefficients(q, k), &
-                                     result%level_coefficient_error(q, k))
-        end do
-        cycle
+        call means_of_level(result%sample_mobility, result%sample_control_mobility, result%level_mobility(:, k), &
+                            result%level_mobility_error(:, k))
+        call means_of_level(result%sample_coefficients, result%sample_control_coefficients, &
+                            result%level_coefficients(:, k), result%level_coefficient_error(:, k))
+      else
+        call means_of_level(result%sample_mobility, result%sample_mobility, result%level_mobility(:, k), &
+                            result%level_mobility_error(:, k))
+        call means_of_level(result%sample_coefficients, result%sample_coefficients, result%level_coefficients(:, k), &
+                            result%level_coefficient_error(:, k))
       end if
-      do q = 1, 36
-        call level_mean(result%sample_mobility(q, members), result%level_mobility(q, k), result%level_mobility_error(q, k))
-      end do
-      do q = 1, 5
-        call level_mean(result%sample_coefficients(q, members), result%level_coefficients(q, k), &
-                        result%level_coefficient_error(q, k))
-      end do
     end do
     do q = 1, 36
       row = modulo(q - 1, 6) + 1
@@ -935,6 +923,23 @@ contains
     if (result%flow) call flow_values()
 
   contains
+
+    !> Level k's mean of every quantity (rows of values, a column per sample) over `members` and
+    !> its standard error; with control samples the controlled mean (T18: the order L - 1 solves
+    !> `controls` on all members correct the mean over the full ones).
+    subroutine means_of_level(values, controls, mean, error)
+      real(dp), intent(in) :: values(:, :), controls(:, :)
+      real(dp), intent(out) :: mean(:), error(:)
+      integer :: row
+      do row = 1, size(values, 1)
+        if (controlled) then
+          call controlled_level_mean(values(row, full_members), controls(row, full_members), controls(row, members), &
+                                     mean(row), error(row))
+        else
+          call level_mean(values(row, members), mean(row), error(row))
+        end if
+      end do
+    end subroutine means_of_level
 
     !> A sample's friction (shape units) corrected by the ratio of the body's and the sample's
     !> equivalent ellipsoids (true_* and sample_* of the loop above), as mobility and coefficients.
