@@ -843,7 +843,7 @@ contains
         result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%bead_diameter, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
-        result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
+        if (p%full) result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
         result%sample_friction(:, s) = reshape(p%friction, [36])
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
