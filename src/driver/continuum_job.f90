@@ -592,16 +592,13 @@ contains
                           control%hydrodynamics%multipole_order, control%hydrodynamics%potential_order)
     control%hydrodynamics%krylov_rtol = control_tolerance_factor * solve_rtol(config%hydrodynamics)
     control%hydrodynamics%krylov_rtol_on_command_line = .false.
-    control%hydrodynamics%error_estimate = .false.
   end function control_settings
 
-  !> The estimated time (s) of level k's samples, ordinary and control.
-  pure real(dp) function level_seconds(config, survey, k)
+  !> The estimated time (s) of a level's samples, ordinary and control, from one of each (sample_estimates).
+  pure real(dp) function level_seconds(config, seconds, control_seconds)
     type(run_config_t), intent(in) :: config
-    type(ladder_survey_t), intent(in) :: survey
-    integer, intent(in) :: k
-    level_seconds = config%continuum%offsets * survey%seconds(k) + &
-                    config%continuum%control_offsets * survey%control_seconds(k)
+    real(dp), intent(in) :: seconds, control_seconds
+    level_seconds = config%continuum%offsets * seconds + config%continuum%control_offsets * control_seconds
   end function level_seconds
 
   !> Collective. The finest ladder whose levels all hold minimum_coarsest_beads (the coarsest
@@ -632,7 +629,7 @@ contains
         call survey_level(ctx, config, mesh, survey, k, refused, err)
         if (err%failed) return
         if (refused%failed) exit
-        total = total + calibration * level_seconds(config, survey, k)
+        total = total + calibration * level_seconds(config, survey%seconds(k), survey%control_seconds(k))
       end do
       if (refused%failed) exit
       if (survey%beads(j + levels - 1) < minimum_coarsest_beads) cycle   ! foreseen, not found: go finer
@@ -700,8 +697,7 @@ contains
         return
       end if
       call sample_estimates(ctx, c, model%centres, seconds, control_seconds, refused)
-      if (.not. refused%failed) estimated_seconds = estimated_seconds + config%continuum%offsets * seconds + &
-                                                    config%continuum%control_offsets * control_seconds
+      if (.not. refused%failed) estimated_seconds = estimated_seconds + level_seconds(config, seconds, control_seconds)
     end do
   end subroutine fixed_ladder
 
@@ -843,8 +839,6 @@ contains
         result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%bead_diameter, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
-        if (p%full) result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
-        result%sample_friction(:, s) = reshape(p%friction, [36])
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
         ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
         scale = [d, d, d, d**2, d**2, d**2]
@@ -858,8 +852,10 @@ contains
                                           ellipsoid_grand_resistance(sample_semi, sample_axes), &
                                           result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
         if (p%full) then
+          result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
+          result%sample_friction(:, s) = reshape(p%friction, [36])
           call corrected_mobility(p%friction * to_shape_units, result%sample_mobility(:, s), result%sample_coefficients(:, s))
-        else
+        else   ! a control sample: nothing solved at order L
           result%sample_symmetry_error(s) = nan
           result%sample_friction(:, s) = nan
           result%sample_mobility(:, s) = nan
