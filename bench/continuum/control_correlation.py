@@ -40,6 +40,9 @@ from scipy.spatial import cKDTree
 from continuum_jobs import ENV, RANKS, ROOT
 from nonconvex import cross, write_obj
 
+sys.path.insert(0, str(ROOT / "scripts"))
+from beadmob_post.orbit import exp_rotation  # noqa: E402   (the rotation by |u| about u)
+
 SEED = 7
 SAMPLES = 8
 BEAD_DIAMETER = 0.0595
@@ -54,14 +57,6 @@ def halton(index, base):
         value += fraction * (index % base)
         index //= base
     return value
-
-
-def rotation(vector):
-    """Rodrigues: the rotation by |vector| about vector."""
-    angle = np.linalg.norm(vector)
-    k = vector / angle
-    cross_matrix = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * cross_matrix + (1 - np.cos(angle)) * cross_matrix @ cross_matrix
 
 
 def run(exe, folder, hydrodynamics):
@@ -96,7 +91,7 @@ def main():
             v = rng.uniform(-1, 1, 3)
             if np.linalg.norm(v) <= 1:
                 break
-        turn = rotation(v * np.radians(MAX_TURN_DEGREES))
+        turn = exp_rotation(v * np.radians(MAX_TURN_DEGREES))
         turns.append(turn)
         folder = work / f"s{j}"
         folder.mkdir(parents=True, exist_ok=True)
