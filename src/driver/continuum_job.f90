@@ -61,6 +61,13 @@ module beadmob_continuum_job
   !> A control solve's Krylov tolerance over the job's (control_settings).
   real(dp), parameter :: control_tolerance_factor = 10.0_dp
 
+  !> What a sample carries in the checkpoint beyond the sample_numbers every job's has: a flow
+  !> job's grand resistance; a controlled job's full-sample flag and order L - 1 friction, and
+  !> with flow its order L - 1 grand resistance too.
+  type :: sample_layout_t
+    logical :: flow = .false., controlled = .false.
+  end type sample_layout_t
+
   !> One solved bead model of the ladder (lengths in d unless said otherwise).
   type :: continuum_sample_t
     integer :: level = 0, offset_index = 0, beads = 0, iterations = 0, converged = 0
@@ -72,6 +79,7 @@ module beadmob_continuum_job
     real(dp) :: control(6, 6) = 0.0_dp
     !> A flow job's grand resistance (theory.md T19), about the same point; 0 otherwise
     real(dp) :: grand(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp
+    real(dp) :: control_grand(6 + n_strain_modes, 6 + n_strain_modes) = 0.0_dp   ! a controlled flow job's order L - 1
     type(body_moments_t) :: moments              ! in the shape's unit
   end type continuum_sample_t
 
@@ -126,7 +134,7 @@ contains
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
-    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, extra_numbers(config), finest, samples, err)
+    if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, layout_of(config), finest, samples, err)
     if (err%failed) return
     ! A mesh is read and checked once; every fill of the job below uses it.
     if (config%shape%name == 'mesh') call read_mesh_once(ctx, config%shape, mesh, err)
@@ -191,7 +199,7 @@ contains
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
         samples = [samples, solve_sample(level, j, diameters(level))]
         if (err%failed) return
-        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, extra_numbers(config), &
+        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, layout_of(config), &
                                                                            diameters(size(diameters)), samples, err)
         call agree_on_error(ctx, err)
         if (err%failed) return
@@ -273,6 +281,7 @@ contains
         call solve_friction(ctx, control_settings(sample_config), sample_model%centres, job_result, sample, err)
         if (err%failed) return
         sample%control = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
+        if (job_result%flow) sample%control_grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
       end if
       sample%seconds = MPI_Wtime() - start
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
@@ -307,9 +316,6 @@ contains
     else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%multipole_order < 2) then
       call raise(err, '&continuum control_offsets solves order L - 1 beside order L: it needs multipole_order >= 2, got ' // &
                  str(config%hydrodynamics%multipole_order))
-    else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%flow) then
-      call raise(err, '&continuum control_offsets corrects the mobility only, not a flow job''s strain solves: ' // &
-                 'leave it out with &hydrodynamics flow = .true.')
     end if
   end subroutine check_continuum_input
 
@@ -734,7 +740,9 @@ contains
     if (ctx%rank /= 0) return
     levels = size(diameters)
     write (*, '(a)') 'beadmob: continuum ladder of ' // str(levels) // ' levels x ' // str(config%continuum%offsets) // &
-      ' offsets, bead diameters (coarsest first):'
+      ' offsets' // either(config%continuum%control_offsets > 0, ' (+ ' // str(config%continuum%control_offsets) // &
+      ' control samples of order ' // str(config%hydrodynamics%multipole_order - 1) // ')', '') // &
+      ', bead diameters (coarsest first):'
     write (*, '(4x, *(es11.4))') diameters
     first = nint(3.0_dp * log(diameters(levels) / config%shape%bead_diameter) / log(2.0_dp))
     if (abs(level_diameter(config, first) - diameters(levels)) <= 1.0e-9_dp * diameters(levels) .and. &
@@ -829,6 +837,8 @@ contains
                                result%sample_stresslet_per_strain(n_strain_modes**2, n))
     if (controlled) allocate (result%sample_full(n), result%sample_control_friction(36, n), &
                               result%sample_control_mobility(36, n), result%sample_control_coefficients(5, n))
+    if (controlled .and. result%flow) allocate (result%sample_control_velocity_per_strain(6 * n_strain_modes, n), &
+                                                result%sample_control_stresslet_per_strain(n_strain_modes**2, n))
     do s = 1, n
       associate (p => samples(s), d => samples(s)%bead_diameter)
         result%sample_level(s) = p%level
@@ -848,9 +858,17 @@ contains
         call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
         if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
         if (err%failed) return
-        if (result%flow) call sample_flow(p%grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
-                                          ellipsoid_grand_resistance(sample_semi, sample_axes), &
-                                          result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
+        if (result%flow) then
+          result%sample_velocity_per_strain(:, s) = nan
+          result%sample_stresslet_per_strain(:, s) = nan
+          if (p%full) call sample_flow(p%grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
+                                       ellipsoid_grand_resistance(sample_semi, sample_axes), &
+                                       result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
+          if (controlled) call sample_flow(p%control_grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
+                                           ellipsoid_grand_resistance(sample_semi, sample_axes), &
+                                           result%sample_control_velocity_per_strain(:, s), &
+                                           result%sample_control_stresslet_per_strain(:, s))
+        end if
         if (p%full) then
           result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
           result%sample_friction(:, s) = reshape(p%friction, [36])
@@ -965,14 +983,18 @@ contains
       allocate (result%level_stresslet_per_strain(nt, levels), result%level_stresslet_per_strain_error(nt, levels))
       do k = 1, levels
         members = pack([(s, s = 1, n)], result%sample_level == k)
-        do q = 1, nv
-          call level_mean(result%sample_velocity_per_strain(q, members), result%level_velocity_per_strain(q, k), &
-                          result%level_velocity_per_strain_error(q, k))
-        end do
-        do q = 1, nt
-          call level_mean(result%sample_stresslet_per_strain(q, members), result%level_stresslet_per_strain(q, k), &
-                          result%level_stresslet_per_strain_error(q, k))
-        end do
+        full_members = pack(members, samples(members)%full)
+        if (controlled) then
+          call means_of_level(result%sample_velocity_per_strain, result%sample_control_velocity_per_strain, &
+                              result%level_velocity_per_strain(:, k), result%level_velocity_per_strain_error(:, k))
+          call means_of_level(result%sample_stresslet_per_strain, result%sample_control_stresslet_per_strain, &
+                              result%level_stresslet_per_strain(:, k), result%level_stresslet_per_strain_error(:, k))
+        else
+          call means_of_level(result%sample_velocity_per_strain, result%sample_velocity_per_strain, &
+                              result%level_velocity_per_strain(:, k), result%level_velocity_per_strain_error(:, k))
+          call means_of_level(result%sample_stresslet_per_strain, result%sample_stresslet_per_strain, &
+                              result%level_stresslet_per_strain(:, k), result%level_stresslet_per_strain_error(:, k))
+        end if
       end do
       do q = 1, nv
         row = modulo(q - 1, 6) + 1
@@ -1092,10 +1114,10 @@ contains
 
   !> The samples of a checkpoint whose key is the run's (rank 0 reads, all ranks get them); a
   !> checkpoint of another input is ignored with a note, a damaged one is an error.
-  subroutine read_checkpoint(ctx, path, key, extra, finest, samples, err)
+  subroutine read_checkpoint(ctx, path, key, layout, finest, samples, err)
     type(run_context_t), intent(in) :: ctx
     character(len=*), intent(in) :: path, key
-    integer, intent(in) :: extra
+    type(sample_layout_t), intent(in) :: layout
     real(dp), intent(out) :: finest
     type(continuum_sample_t), allocatable, intent(inout) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -1105,7 +1127,7 @@ contains
     logical :: exists
     integer :: unit, status, n, s, ierr, width
     real(dp), allocatable :: values(:)
-    width = sample_numbers + extra
+    width = sample_numbers + extra_numbers(layout)
     allocate (values(width))
     n = 0
     finest = -1.0_dp
@@ -1124,7 +1146,7 @@ contains
       allocate (numbers(width, n))
     end if
     if (n > 0) call MPI_Bcast(numbers, width * n, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
-    samples = [(unpack_sample(numbers(:, s)), s = 1, n)]
+    samples = [(unpack_sample(numbers(:, s), layout), s = 1, n)]
 
   contains
 
@@ -1162,9 +1184,9 @@ contains
 
   !> Rank 0: every sample so far to '<path>.tmp', renamed over the checkpoint (a kill while
   !> writing leaves the previous one whole).
-  subroutine write_checkpoint(path, key, extra, finest, samples, err)
+  subroutine write_checkpoint(path, key, layout, finest, samples, err)
     character(len=*), intent(in) :: path, key
-    integer, intent(in) :: extra
+    type(sample_layout_t), intent(in) :: layout
     real(dp), intent(in) :: finest
     type(continuum_sample_t), intent(in) :: samples(:)
     type(error_t), intent(inout) :: err
@@ -1172,39 +1194,48 @@ contains
     open (newunit=unit, file=path // '.tmp', status='replace', action='write', iostat=status)
     if (status == 0) write (unit, '(a, 1x, a, 1x, es25.17e3)', iostat=status) checkpoint_header, key, finest
     do s = 1, size(samples)
-      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s), extra)
+      if (status == 0) write (unit, '(*(es25.17e3, :, 1x))', iostat=status) pack_sample(samples(s), layout)
     end do
     if (status == 0) close (unit, iostat=status)
     if (status /= 0 .or. .not. rename_file(path // '.tmp', path)) &
       call raise(err, "cannot write the continuum checkpoint '" // path // "' (&run checkpoint = .false. runs without one)")
   end subroutine write_checkpoint
 
-  !> The numbers a sample has in the checkpoint beyond the sample_numbers every job's has: a
-  !> flow job's grand resistance, a controlled job's order L - 1 friction (the two exclude each other).
-  pure integer function extra_numbers(config)
+  !> The checkpoint's sample layout of a job.
+  pure type(sample_layout_t) function layout_of(config)
     type(run_config_t), intent(in) :: config
+    layout_of = sample_layout_t(config%hydrodynamics%flow, config%continuum%control_offsets > 0)
+  end function layout_of
+
+  !> The numbers a sample of this layout adds to the sample_numbers.
+  pure integer function extra_numbers(layout)
+    type(sample_layout_t), intent(in) :: layout
     extra_numbers = 0
-    if (config%hydrodynamics%flow) extra_numbers = flow_numbers
-    if (config%continuum%control_offsets > 0) extra_numbers = control_numbers
+    if (layout%flow) extra_numbers = flow_numbers
+    if (layout%controlled) extra_numbers = extra_numbers + control_numbers
+    if (layout%flow .and. layout%controlled) extra_numbers = extra_numbers + flow_numbers
   end function extra_numbers
 
   !> level, offset index, beads, iterations, converged, seconds, residual, d, offset(3),
-  !> friction(36), volume, first(3), second(9): 60 numbers; then the `extra` numbers
-  !> (extra_numbers): the grand resistance (121), or 1 for a full sample and the control friction (37).
-  pure function pack_sample(p, extra) result(values)
+  !> friction(36), volume, first(3), second(9): 60 numbers; then (layout) the grand resistance
+  !> (121), 1 for a full sample and the control friction (37), the control's grand resistance (121).
+  pure function pack_sample(p, layout) result(values)
     type(continuum_sample_t), intent(in) :: p
-    integer, intent(in) :: extra
+    type(sample_layout_t), intent(in) :: layout
     real(dp), allocatable :: values(:)
     values = [real(p%level, dp), real(p%offset_index, dp), real(p%beads, dp), real(p%iterations, dp), &
               real(p%converged, dp), p%seconds, p%residual, p%bead_diameter, p%offset, reshape(p%friction, [36]), &
               p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
-    if (extra == flow_numbers) values = [values, reshape(p%grand, [flow_numbers])]
-    if (extra == control_numbers) values = [values, merge(1.0_dp, 0.0_dp, p%full), reshape(p%control, [36])]
+    if (layout%flow) values = [values, reshape(p%grand, [flow_numbers])]
+    if (layout%controlled) values = [values, merge(1.0_dp, 0.0_dp, p%full), reshape(p%control, [36])]
+    if (layout%flow .and. layout%controlled) values = [values, reshape(p%control_grand, [flow_numbers])]
   end function pack_sample
 
-  pure function unpack_sample(values) result(p)
+  pure function unpack_sample(values, layout) result(p)
     real(dp), intent(in) :: values(:)
+    type(sample_layout_t), intent(in) :: layout
     type(continuum_sample_t) :: p
+    integer :: next
     p%level = nint(values(1))
     p%offset_index = nint(values(2))
     p%beads = nint(values(3))
@@ -1218,12 +1249,17 @@ contains
     p%moments%volume = values(48)
     p%moments%first = values(49:51)
     p%moments%second = reshape(values(52:60), [3, 3])
-    if (size(values) == sample_numbers + flow_numbers) &
-      p%grand = reshape(values(sample_numbers + 1:sample_numbers + flow_numbers), shape(p%grand))
-    if (size(values) == sample_numbers + control_numbers) then
-      p%full = values(sample_numbers + 1) > 0.5_dp
-      p%control = reshape(values(sample_numbers + 2:sample_numbers + control_numbers), [6, 6])
+    next = sample_numbers + 1
+    if (layout%flow) then
+      p%grand = reshape(values(next:next + flow_numbers - 1), shape(p%grand))
+      next = next + flow_numbers
     end if
+    if (layout%controlled) then
+      p%full = values(next) > 0.5_dp
+      p%control = reshape(values(next + 1:next + 36), [6, 6])
+      next = next + control_numbers
+    end if
+    if (layout%flow .and. layout%controlled) p%control_grand = reshape(values(next:next + flow_numbers - 1), shape(p%grand))
   end function unpack_sample
 
 

@@ -75,6 +75,8 @@ module beadmob_continuum_fit
     !> and standard errors, and the continuum values with their bars
     logical :: flow = .false.
     real(dp), allocatable :: sample_velocity_per_strain(:, :), sample_stresslet_per_strain(:, :)
+    !> With control samples as well: their order L - 1 flow response (as sample_control_mobility).
+    real(dp), allocatable :: sample_control_velocity_per_strain(:, :), sample_control_stresslet_per_strain(:, :)
     real(dp), allocatable :: level_velocity_per_strain(:, :), level_velocity_per_strain_error(:, :)
     real(dp), allocatable :: level_stresslet_per_strain(:, :), level_stresslet_per_strain_error(:, :)
     real(dp) :: velocity_per_strain(6, 5) = 0.0_dp, velocity_per_strain_error(6, 5) = 0.0_dp

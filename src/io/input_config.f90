@@ -54,7 +54,7 @@ module beadmob_input_config
     !> Resolutions (bead counts a factor 2 apart), offsets solved per resolution, and the
     !> geometry-only fills at the finest resolution that measure the body's volume and moments.
     integer :: levels = 7
-    integer :: offsets = 4
+    integer :: offsets = unset_int   ! resolve_continuum_defaults
     integer :: moment_fills = 32
     !> The finest level's bead diameter (shape units) instead of the budget's choice.
     real(dp) :: finest_bead_diameter = unset_real
@@ -66,8 +66,14 @@ module beadmob_input_config
     !> Control samples per level: offsets beyond `offsets` solved at order L - 1 alone, whose mean
     !> corrects the level's (the `offsets` samples also solve order L - 1 on their beads: a
     !> control variate, docs/theory.md T18); 0: none.
-    integer :: control_offsets = 0
+    integer :: control_offsets = unset_int   ! resolve_continuum_defaults
   end type continuum_settings_t
+
+  !> The continuum job's samples per level when the input leaves them out: at multipole_order
+  !> >= 2 two offsets and six control samples (a level at most the cost of four plain offsets;
+  !> on the coverage bench its bars 0.68 times the plain four's at the same coverage,
+  !> bench/continuum/coverage_control.md), at order 1 (no lower order to control with) four offsets.
+  integer, parameter :: default_controlled_offsets = 2, default_control_offsets = 6, default_plain_offsets = 4
 
   type :: run_config_t
     !> Input file path, or 'built-in default' when run without one.
@@ -128,6 +134,7 @@ contains
     if (err%failed) return
     call read_continuum_group(lines, source, config%continuum, err)
     if (err%failed) return
+    call resolve_continuum_defaults(config%continuum, config%hydrodynamics%multipole_order)
     if (.not. found) call raise(err, source // ': no &shape group (say which bead model to build, e.g. &shape name=''cone'' /)')
     ! A relative bead file path is relative to the input file, wherever the run starts.
     if (len_trim(config%shape%file) > 0 .and. config%shape%file(1:1) /= '/' .and. index(source, '/') > 0) &
@@ -168,7 +175,7 @@ contains
     else if (levels < 3 .or. levels > 12) then
       call raise(err, source // ': &continuum levels must be 3 to 12 (a quadratic in the bead size needs 3), got ' // &
                  str(levels))
-    else if (offsets < 2 .or. offsets > 64) then
+    else if (is_set(offsets) .and. (offsets < 2 .or. offsets > 64)) then
       call raise(err, source // ': &continuum offsets must be 2 to 64 (a level''s scatter needs 2), got ' // str(offsets))
     else if (moment_fills < 8 .or. moment_fills > 4096) then
       call raise(err, source // ': &continuum moment_fills must be 8 to 4096, got ' // str(moment_fills))
@@ -177,7 +184,7 @@ contains
       call raise(err, source // ': &continuum finest_bead_diameter must be positive, got ' // str(finest_bead_diameter))
     else if (.not. (turn_angle > 0.0_dp .and. turn_angle <= 180.0_dp)) then
       call raise(err, source // ': &continuum turn_angle must be in (0, 180] degrees, got ' // str(turn_angle))
-    else if (control_offsets < 0 .or. control_offsets > 256) then
+    else if (is_set(control_offsets) .and. (control_offsets < 0 .or. control_offsets > 256)) then
       call raise(err, source // ': &continuum control_offsets must be 0 to 256, got ' // str(control_offsets))
     end if
     if (err%failed) return
@@ -186,6 +193,18 @@ contains
                                     turned_lattices=turned_lattices, turn_angle=turn_angle, &
                                     control_offsets=control_offsets)
   end subroutine read_continuum_group
+
+  !> The samples per level an input leaves out (default_*_offsets above): control samples
+  !> wherever the multipole order has a lower one to control with, and then fewer full offsets.
+  !> What the input gives is kept (a control_offsets > 0 at order 1 is refused by the job).
+  subroutine resolve_continuum_defaults(settings, multipole_order)
+    type(continuum_settings_t), intent(inout) :: settings
+    integer, intent(in) :: multipole_order
+    if (.not. is_set(settings%control_offsets)) &
+      settings%control_offsets = merge(default_control_offsets, 0, multipole_order >= 2)
+    if (.not. is_set(settings%offsets)) &
+      settings%offsets = merge(default_controlled_offsets, default_plain_offsets, settings%control_offsets > 0)
+  end subroutine resolve_continuum_defaults
 
   subroutine read_run_group(lines, source, config, err)
     character(len=*), intent(in) :: lines(:), source

@@ -458,6 +458,12 @@ contains
       call write_replicated_dataset(ctx, group, 'level_stresslet_per_strain', c%level_stresslet_per_strain, err)
       call write_replicated_dataset(ctx, group, 'level_stresslet_per_strain_error', &
                                     c%level_stresslet_per_strain_error, err)
+      if (c%control_offsets > 0) then
+        call write_replicated_dataset(ctx, group, 'sample_control_velocity_per_strain', &
+                                      c%sample_control_velocity_per_strain, err)
+        call write_replicated_dataset(ctx, group, 'sample_control_stresslet_per_strain', &
+                                      c%sample_control_stresslet_per_strain, err)
+      end if
     end if
     call h5_close_group(group, err)
   end subroutine write_continuum

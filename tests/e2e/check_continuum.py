@@ -19,7 +19,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    levels = 2, lattice_offset given, an accuracy target, a time budget no ladder fits, a
    finest_bead_diameter whose coarsest level would hold fewer than 100 beads, turned_lattices for
    an analytic shape (beadmob turns meshes only).
-5. --estimate prints the ladder and writes nothing.
+5. --estimate prints the ladder and writes nothing; the samples per level left out resolve to 2
+   offsets and 6 control samples at order 2, to 4 plain offsets at order 1.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
@@ -27,7 +28,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    order-L values NaN, their controls finite, lower order solves faster per sample); each level's
    mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
-   the bars. Refused: control_offsets with multipole_order = 1, with flow, below 0."""
+   the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
+   controlled alike. Refused: control_offsets with multipole_order = 1, below 0."""
 import math
 import os
 import subprocess
@@ -42,7 +44,8 @@ from beadmob_post.continuum import level_excess, load_continuum, quadratic_fit  
 from checklist import check, failures  # noqa: E402
 
 SPHERE = "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics /\n"
-LADDER = "&continuum levels = 4, offsets = 2, finest_bead_diameter = 0.16 /\n"
+# Plain samples (control samples, the default, are section 7's).
+LADDER = "&continuum levels = 4, offsets = 2, control_offsets = 0, finest_bead_diameter = 0.16 /\n"
 
 
 def write_input(workdir, name, output, body):
@@ -171,6 +174,7 @@ def main(beadmob, mpiexec, ranks, workdir):
     ]
     for body, expected in refusals:
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
+        (Path(workdir) / "refused.h5").unlink(missing_ok=True)   # of an earlier run of this test
         done = run(beadmob, mpiexec, ranks, workdir, nml)
         check(done.returncode != 0 and expected in done.stderr + done.stdout and not (Path(workdir) / "refused.h5").exists(),
               f"refused ({expected!r}): exit {done.returncode}, {(done.stderr.strip().splitlines() or [''])[-1]!r}")
@@ -212,19 +216,45 @@ def main(beadmob, mpiexec, ranks, workdir):
     for body, expected in (
             ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics multipole_order = 1 /\n"
              + controlled_ladder, "needs multipole_order >= 2"),
-            ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics flow = .true. /\n"
-             + controlled_ladder, "with &hydrodynamics flow = .true."),
             (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256")):
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
+        (Path(workdir) / "refused.h5").unlink(missing_ok=True)   # of an earlier run of this test
         done = run(beadmob, mpiexec, ranks, workdir, nml)
         check(done.returncode != 0 and expected in done.stderr + done.stdout and not (Path(workdir) / "refused.h5").exists(),
               f"refused ({expected!r}): exit {done.returncode}, {(done.stderr.strip().splitlines() or [''])[-1]!r}")
 
-    # 5. The dry run.
+    # A flow job with control samples: the sphere's stresslet per unit strain of each orthonormal
+    # mode, (20 / 3) pi a^3 (Batchelor 1970; Kim & Karrila 1991, ch. 3), within its bar, and each
+    # level's mean of it mean(y - x) + mean(x) as for the mobility.
+    nml = write_input(workdir, "flow.nml", "flow.h5", "&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n"
+                      "&hydrodynamics flow = .true. /\n" + controlled_ladder)
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    if done.returncode != 0:
+        sys.exit(f"the controlled flow job failed:\n{done.stdout}\n{done.stderr}")
+    fc = continuum(Path(workdir) / "flow.h5")
+    stresslet, bar = np.diag(fc["stresslet_per_strain"]), np.diag(fc["stresslet_per_strain_error"])
+    check(np.all(np.abs(stresslet - 20 * math.pi / 3) <= bar) and np.all(bar < 0.15 * 20 * math.pi / 3),
+          f"controlled flow: the sphere's stresslet {stresslet} = 20 pi / 3 within its bar {bar}")
+    y = np.asarray(fc["sample_stresslet_per_strain"]).reshape(len(level), 25)
+    x = np.asarray(fc["sample_control_stresslet_per_strain"]).reshape(len(level), 25)
+    means = np.array([(y[(level == k) & (full == 1)] - x[(level == k) & (full == 1)]).mean(0) + x[level == k].mean(0)
+                      for k in range(1, 5)])
+    check(np.all(np.isnan(y[full == 0])) and np.all(np.isfinite(x))
+          and np.allclose(means, np.asarray(fc["level_stresslet_per_strain"]).reshape(4, 25), rtol=1e-12, atol=1e-12),
+          "controlled flow: each level's stresslet mean is mean(y - x) over the full samples + mean(x) over all")
+
+    # 5. The dry run, and the samples per level an input leaves out: 2 offsets and 6 control
+    #    samples of order 1 at the default order 2; 4 plain offsets at order 1.
     nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 300 /\n")
     done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
-    check(done.returncode == 0 and "continuum ladder of 7 levels" in done.stdout and not (Path(workdir) / "dry.h5").exists(),
-          "--estimate prints the ladder and writes no result")
+    check(done.returncode == 0 and "continuum ladder of 7 levels x 2 offsets (+ 6 control samples of order 1)" in done.stdout
+          and not (Path(workdir) / "dry.h5").exists(), "--estimate prints the ladder (default: 2 offsets + 6 control "
+          "samples) and writes no result")
+    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE.replace("&hydrodynamics /", "&hydrodynamics multipole_order = 1 /")
+                      + "&continuum time_budget = 300 /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
+    check(done.returncode == 0 and "levels x 4 offsets, bead diameters" in done.stdout,
+          "at multipole_order = 1 the default is 4 plain offsets (no lower order to control with)")
 
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")

@@ -147,8 +147,11 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     with h5py.File(workdir / "lattices.h5", "r") as f:
         c = f["continuum"]
         axes = [row.reshape(3, 3, order="F") for row in c["sample_lattice_axes"][()]]
-        sample = dict(level=int(c.attrs["sample_level"][-1]), beads=int(c.attrs["sample_beads"][-1]),
-                      offset=c["sample_offset"][-1], friction=c["sample_friction"][-1].reshape(6, 6, order="F"))
+        # The last sample solved at order L (with control samples, /continuum sample_full = 1).
+        full = np.asarray(c.attrs["sample_full"]).reshape(-1) if "sample_full" in c.attrs else np.ones(len(axes))
+        last = int(np.flatnonzero(full == 1)[-1])
+        sample = dict(level=int(c.attrs["sample_level"][last]), beads=int(c.attrs["sample_beads"][last]),
+                      offset=c["sample_offset"][last], friction=c["sample_friction"][last].reshape(6, 6, order="F"))
         d = c["bead_diameters"][sample["level"] - 1]
         pivot = c["lattice_pivot"][()]
         turned = (c["mobility"][()], c["mobility_error"][()])
@@ -167,7 +170,7 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
           f"the turned moment fills' volume is the polyhedron's: {body['volume']} +- {body['error']} against "
           f"{exact_volume} ({body['fills']} fills)")
     # The last sample rebuilt: the mesh turned by Q^T about the pivot, on the sample's lattice.
-    q = axes[-1]
+    q = axes[last]
     write_obj(workdir / "sample.obj", pivot + (triangles - pivot) @ q)
     nml = workdir / "sample.nml"
     nml.write_text("&run output = 'sample.h5' /\n&shape name = 'mesh', file = 'sample.obj', "
@@ -190,9 +193,10 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     check(bound is not None and np.all(difference <= allowed),
           f"the sample's friction is the turned ordinary run's, turned back (largest |difference| / allowed "
           f"{np.max(difference / allowed):.2g})")
-    # The checkpoint's last line: 60 numbers of the sample, then its 11 x 11 grand resistance (Fortran order).
-    last = (workdir / "lattices.h5.continuum_checkpoint").read_text().splitlines()[-1].split()
-    sample_grand = np.array([float(x) for x in last[60:]]).reshape(11, 11, order="F")
+    # The sample's checkpoint line (after the header): 60 numbers of the sample, then its 11 x 11
+    # grand resistance (Fortran order; a controlled job's control numbers follow).
+    line = (workdir / "lattices.h5.continuum_checkpoint").read_text().splitlines()[1 + last].split()
+    sample_grand = np.array([float(x) for x in line[60:181]]).reshape(11, 11, order="F")
     turn = np.zeros((11, 11))
     turn[:6, :6] = big
     turn[6:, 6:] = strain_rotation(q)
