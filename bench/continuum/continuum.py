@@ -4,7 +4,8 @@ continuum job (&continuum, docs/theory.md T18) against exact results, on 2 ranks
 
 --ellipsoids: six ellipsoids (sphere, prolate 2:1 and 4:1, oblate 1:2 and 1:4, triaxial
   3:2:1), smallest semi-axis 1 in their own unit, bead_diameter 1/8 (the ordinary run), each a
-  continuum job with time_budget S (default settings otherwise: 7 levels x 4 offsets). Compared
+  continuum job with time_budget S (default settings otherwise: 7 levels x 2 offsets and 6 control samples since
+  2026-11-28, 4 offsets before). Compared
   with the exact ellipsoid (scripts/beadmob_post/ellipsoid.py: Oberbeck, Jeffery via Carlson's
   integrals) on the six diagonal entries of the mobility (principal frame = input axes):
   deviation = largest |continuum / exact - 1| over translation (t) and rotation (r); the job's
