@@ -58,6 +58,8 @@ module beadmob_continuum_job
   integer, parameter :: sample_numbers = 60, flow_numbers = 121
   !> Numbers a job with control samples adds per sample: 1 when solved at order L, the order L - 1 friction.
   integer, parameter :: control_numbers = 37
+  !> fill_budget's limit of a level's samples (the turns of turned lattices are numbered for 64).
+  integer, parameter :: max_samples_per_level = 64
   !> A control solve's Krylov tolerance over the job's (control_settings).
   real(dp), parameter :: control_tolerance_factor = 10.0_dp
 
@@ -110,10 +112,11 @@ module beadmob_continuum_job
 contains
 
   !> Collective. The continuum job of config (its &continuum group), result to config%output.
-  subroutine run_continuum_job(ctx, config, err)
+  subroutine run_continuum_job(ctx, input_config, err)
     type(run_context_t), intent(in) :: ctx
-    type(run_config_t), intent(in) :: config
+    type(run_config_t), intent(in) :: input_config
     type(error_t), intent(inout) :: err
+    type(run_config_t) :: config   ! the input's, with fill_budget's control samples
     type(continuum_sample_t), allocatable :: samples(:)
     type(continuum_result_t) :: result
     type(body_moments_t) :: body
@@ -122,15 +125,16 @@ contains
     type(triangle_mesh_t) :: mesh
     type(ladder_survey_t) :: survey
     real(dp), allocatable :: diameters(:), volumes(:)
-    real(dp) :: estimated_seconds, finest, estimate
+    real(dp) :: estimated_seconds, finest, estimate, control_round
     type(continuum_sample_t) :: pilot
     logical :: budget_chooses
     character(len=:), allocatable :: key, checkpoint, chosen_by
     integer :: level, j, fill, solved_here, pilot_level, finest_level
 
+    config = input_config
     call check_continuum_input(config, err)
     if (err%failed) return
-    key = fnv1a_hex(effective_input_text(config, numbers_only=.true.))
+    key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.))
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
@@ -149,16 +153,17 @@ contains
     budget_chooses = finest <= 0.0_dp .and. .not. is_set(config%continuum%finest_bead_diameter)
     if (budget_chooses) then
       chosen_by = 'time_budget'
-      call budget_ladder(ctx, config, mesh, survey, 1.0_dp, diameters, estimated_seconds, finest_level, err)
+      call budget_ladder(ctx, config, mesh, survey, 1.0_dp, diameters, estimated_seconds, finest_level, control_round, err)
       if (err%failed) return
       call pilot_level_of(ctx, config, mesh, survey, finest_level, pilot_level, err)
       if (err%failed) return
     else
       chosen_by = either(finest > 0.0_dp, 'checkpoint', 'finest_bead_diameter')
       call fixed_ladder(ctx, config, mesh, survey, merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp), &
-                        diameters, estimated_seconds, err)
+                        diameters, estimated_seconds, control_round, err)
       if (err%failed) return
     end if
+    call fill_budget(input_config, control_round, 1.0_dp, config, estimated_seconds)
     if (config%dry_run .or. config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, &
                                                                 1.0_dp, pilot_level)
     if (config%dry_run) return
@@ -170,8 +175,11 @@ contains
       estimate = survey%seconds(pilot_level)
       if (estimate > 0.0_dp .and. pilot%beads >= minimum_coarsest_beads) survey%calibration = max(1.0_dp, pilot%seconds / estimate)
       if (survey%calibration > 1.0_dp) then
-        call budget_ladder(ctx, config, mesh, survey, survey%calibration, diameters, estimated_seconds, finest_level, err)
+        config = input_config
+        call budget_ladder(ctx, config, mesh, survey, survey%calibration, diameters, estimated_seconds, finest_level, &
+                           control_round, err)
         if (err%failed) return
+        call fill_budget(input_config, control_round, survey%calibration, config, estimated_seconds)
         if (config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, survey%calibration)
       end if
       do level = 1, size(diameters)
@@ -229,7 +237,7 @@ contains
     result%estimated_seconds = estimated_seconds
     result%calibration = survey%calibration
     result%chosen_by = chosen_by
-    call write_result_file(ctx, config, model, frame, err, continuum=result)
+    call write_result_file(ctx, input_config, model, frame, err, continuum=result)
     if (err%failed) return
     if (config%checkpoint .and. .not. config%keep_checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
     if (ctx%rank == 0) call print_continuum(config, result)
@@ -313,6 +321,9 @@ contains
     else if (config%continuum%turned_lattices .and. config%shape%name /= 'mesh') then
       call raise(err, "&continuum turned_lattices turns the body against the lattice, which beadmob does for " // &
                  "meshes only, not for shape '" // trim(config%shape%name) // "' (leave it out, or give the body as a mesh)")
+    else if (config%continuum%fill_budget .and. config%continuum%control_offsets == 0) then
+      call raise(err, '&continuum fill_budget spends the rest of the budget on control samples: it needs ' // &
+                 'control_offsets > 0 (and multipole_order >= 2)')
     else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%multipole_order < 2) then
       call raise(err, '&continuum control_offsets solves order L - 1 beside order L: it needs multipole_order >= 2, got ' // &
                  str(config%hydrodynamics%multipole_order))
@@ -508,6 +519,7 @@ contains
               survey%control_seconds(survey%finest:survey%coarsest))
     survey%beads = -1
     survey%seconds = -1.0_dp
+    survey%control_seconds = -1.0_dp
   end subroutine survey_body
 
   !> The axes (columns, a proper rotation) that box the vertices tighter: the input's, or the
@@ -607,12 +619,35 @@ contains
     level_seconds = config%continuum%offsets * seconds + config%continuum%control_offsets * control_seconds
   end function level_seconds
 
+  !> fill_budget (docs/theory.md T18, "Control samples"): the rest of the time budget, after a
+  !> ladder estimated at `estimated_seconds` with the input's control samples, spent on more
+  !> control samples on every level: as many as `control_round` (s, the estimate of one control
+  !> sample on each level) times `calibration` pays for, up to max_samples_per_level samples per
+  !> level in all. `filled` gets them; the estimate grows by their cost.
+  subroutine fill_budget(input, control_round, calibration, filled, estimated_seconds)
+    type(run_config_t), intent(in) :: input
+    real(dp), intent(in) :: control_round, calibration
+    type(run_config_t), intent(inout) :: filled
+    real(dp), intent(inout) :: estimated_seconds
+    real(dp) :: per_round
+    integer :: extra
+    filled%continuum%control_offsets = input%continuum%control_offsets
+    per_round = calibration * control_round
+    if (.not. input%continuum%fill_budget .or. per_round <= 0.0_dp .or. &
+        estimated_seconds >= input%continuum%time_budget) return
+    extra = floor(min((input%continuum%time_budget - estimated_seconds) / per_round, real(max_samples_per_level, dp)))
+    extra = min(extra, max_samples_per_level - input%continuum%offsets - input%continuum%control_offsets)
+    if (extra <= 0) return
+    filled%continuum%control_offsets = input%continuum%control_offsets + extra
+    estimated_seconds = estimated_seconds + extra * per_round
+  end subroutine fill_budget
+
   !> Collective. The finest ladder whose levels all hold minimum_coarsest_beads (the coarsest
   !> is the fewest) and whose estimate times `calibration` fits the time budget. With none that
   !> fits: refused when uncalibrated (before any solve), naming the cheapest feasible ladder and
   !> its estimate; after a pilot (calibration > 1) the cheapest feasible ladder is run, with a
   !> warning, since the pilot has shown only that this machine is slower than the estimates.
-  subroutine budget_ladder(ctx, config, mesh, survey, calibration, diameters, estimated_seconds, chosen, err)
+  subroutine budget_ladder(ctx, config, mesh, survey, calibration, diameters, estimated_seconds, chosen, control_round, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
@@ -621,6 +656,7 @@ contains
     real(dp), allocatable, intent(out) :: diameters(:)
     real(dp), intent(out) :: estimated_seconds
     integer, intent(out) :: chosen     ! the finest level's index k
+    real(dp), intent(out) :: control_round   ! one control sample on every level (s, uncalibrated)
     type(error_t), intent(inout) :: err
     type(error_t) :: refused
     real(dp) :: total, cheapest_total
@@ -670,11 +706,12 @@ contains
         trim(seconds_text(cheapest_total)) // ', beyond the time budget: running it'
     end if
     diameters = [(level_diameter(config, k), k = chosen + levels - 1, chosen, -1)]
+    control_round = sum(max(survey%control_seconds(chosen:chosen + levels - 1), 0.0_dp))
   end subroutine budget_ladder
 
   !> Collective. The ladder ending at `finest` (finest_bead_diameter or a checkpoint's), refused
   !> before any solve when its coarsest level holds fewer than minimum_coarsest_beads beads.
-  subroutine fixed_ladder(ctx, config, mesh, survey, finest, diameters, estimated_seconds, err)
+  subroutine fixed_ladder(ctx, config, mesh, survey, finest, diameters, estimated_seconds, control_round, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
@@ -682,6 +719,7 @@ contains
     real(dp), intent(in) :: finest
     real(dp), allocatable, intent(out) :: diameters(:)
     real(dp), intent(out) :: estimated_seconds
+    real(dp), intent(out) :: control_round   ! one control sample on every level (s)
     type(error_t), intent(inout) :: err
     type(run_config_t) :: c
     type(bead_model_t) :: model
@@ -691,6 +729,7 @@ contains
     levels = config%continuum%levels
     diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
     estimated_seconds = 0.0_dp
+    control_round = 0.0_dp
     do k = 1, levels
       call build_at(ctx, config, mesh, survey%turns, diameters(k), 1, model, err, c)
       if (err%failed) return
@@ -703,7 +742,9 @@ contains
         return
       end if
       call sample_estimates(ctx, c, model%centres, seconds, control_seconds, refused)
-      if (.not. refused%failed) estimated_seconds = estimated_seconds + level_seconds(config, seconds, control_seconds)
+      if (refused%failed) cycle
+      estimated_seconds = estimated_seconds + level_seconds(config, seconds, control_seconds)
+      control_round = control_round + control_seconds
     end do
   end subroutine fixed_ladder
 

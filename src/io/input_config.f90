@@ -67,6 +67,9 @@ module beadmob_input_config
     !> corrects the level's (the `offsets` samples also solve order L - 1 on their beads: a
     !> control variate, docs/theory.md T18); 0: none.
     integer :: control_offsets = unset_int   ! resolve_continuum_defaults
+    !> With control samples: after the ladder is chosen, the rest of the time budget buys more
+    !> control samples on every level (up to 64 samples per level; docs/theory.md T18).
+    logical :: fill_budget = .false.
   end type continuum_settings_t
 
   !> The continuum job's samples per level when the input leaves them out: at multipole_order
@@ -150,10 +153,10 @@ contains
     type(error_t), intent(inout) :: err
     real(dp) :: time_budget, finest_bead_diameter, turn_angle
     integer :: levels, offsets, moment_fills, control_offsets, status
-    logical :: turned_lattices
+    logical :: turned_lattices, fill_budget
     character(len=512) :: message
     namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices, &
-                         turn_angle, control_offsets
+                         turn_angle, control_offsets, fill_budget
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -163,6 +166,7 @@ contains
     moment_fills = settings%moment_fills
     finest_bead_diameter = settings%finest_bead_diameter
     turned_lattices = settings%turned_lattices
+    fill_budget = settings%fill_budget
     turn_angle = settings%turn_angle
     control_offsets = settings%control_offsets
     read (lines, nml=continuum, iostat=status, iomsg=message)
@@ -191,7 +195,7 @@ contains
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
                                     moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
                                     turned_lattices=turned_lattices, turn_angle=turn_angle, &
-                                    control_offsets=control_offsets)
+                                    control_offsets=control_offsets, fill_budget=fill_budget)
   end subroutine read_continuum_group
 
   !> The samples per level an input leaves out (default_*_offsets above): control samples
@@ -578,6 +582,7 @@ contains
       end if
       if (config%continuum%control_offsets > 0) text = text // '  control_offsets = ' // &
                                                        str(config%continuum%control_offsets) // new_line('a')
+      if (config%continuum%fill_budget) text = text // '  fill_budget = .true.' // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

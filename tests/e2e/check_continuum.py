@@ -20,7 +20,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    finest_bead_diameter whose coarsest level would hold fewer than 100 beads, turned_lattices for
    an analytic shape (beadmob turns meshes only).
 5. --estimate prints the ladder and writes nothing; the samples per level left out resolve to 2
-   offsets and 6 control samples at order 2, to 4 plain offsets at order 1.
+   offsets and 6 control samples at order 2, to 4 plain offsets at order 1; with fill_budget the
+   ladder has more than 6 control samples and its estimate stays within the budget.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
@@ -29,9 +30,11 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
-   controlled alike. Refused: control_offsets with multipole_order = 1, below 0."""
+   controlled alike. Refused: control_offsets with multipole_order = 1, below 0; fill_budget
+   without control samples."""
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -216,7 +219,8 @@ def main(beadmob, mpiexec, ranks, workdir):
     for body, expected in (
             ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics multipole_order = 1 /\n"
              + controlled_ladder, "needs multipole_order >= 2"),
-            (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256")):
+            (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256"),
+            (SPHERE + "&continuum control_offsets = 0, fill_budget = .true. /\n", "fill_budget spends the rest")):
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
         (Path(workdir) / "refused.h5").unlink(missing_ok=True)   # of an earlier run of this test
         done = run(beadmob, mpiexec, ranks, workdir, nml)
@@ -255,6 +259,14 @@ def main(beadmob, mpiexec, ranks, workdir):
     done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
     check(done.returncode == 0 and "levels x 4 offsets, bead diameters" in done.stdout,
           "at multipole_order = 1 the default is 4 plain offsets (no lower order to control with)")
+    # fill_budget: the rest of the budget on more control samples, the estimate still within it.
+    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 300, fill_budget = .true. /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
+    ladder = re.search(r"7 levels x 2 offsets \(\+ (\d+) control samples", done.stdout)
+    estimate = re.search(r"estimated time ([0-9.]+) s \(budget 300\. s", done.stdout)
+    check(done.returncode == 0 and ladder is not None and int(ladder.group(1)) > 6 and estimate is not None
+          and float(estimate.group(1)) <= 300, f"fill_budget: more control samples within the budget "
+          f"({ladder.group(1) if ladder else None} per level, estimate {estimate.group(1) if estimate else None} s)")
 
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")
