@@ -580,8 +580,9 @@ contains
         write (line, '(a, es23.16)') '  turn_angle = ', config%continuum%turn_angle
         text = text // '  turned_lattices = .true. ' // new_line('a') // trim(line) // new_line('a')
       end if
-      if (config%continuum%control_offsets > 0) text = text // '  control_offsets = ' // &
-                                                       str(config%continuum%control_offsets) // new_line('a')
+      ! Always: an input that leaves it out gets control samples by default, so a plain job's
+      ! text must say 0 to rerun as one.
+      text = text // '  control_offsets = ' // str(config%continuum%control_offsets) // new_line('a')
       if (config%continuum%fill_budget) text = text // '  fill_budget = .true.' // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')

@@ -26,7 +26,7 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
    against Stokes; per level 2 samples solved at L = 2 and 3 control samples at L = 1 (their
-   order-L values NaN, their controls finite, lower order solves faster per sample); each level's
+   order-L values NaN, their controls finite, fewer Krylov iterations per sample); each level's
    mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
@@ -93,6 +93,11 @@ def main(beadmob, mpiexec, ranks, workdir):
           f"recorded: L = {c['multipole_order']}, friction symmetry errors <= "
           f"{c['sample_friction_symmetry_error'].max():.1e}, true residuals <= {c['sample_true_relative_residual'].max():.1e}")
     check(np.allclose(c["friction"] @ c["mobility"], np.eye(6), atol=1e-10), "continuum friction = mobility^-1")
+    with h5py.File(Path(workdir) / "sphere.h5", "r") as f:
+        echoed = f["input/effective_namelist"][()]
+    echoed = echoed.decode() if isinstance(echoed, bytes) else str(echoed)
+    check("control_offsets = 0" in echoed and "offsets = 2" in echoed,
+          "the plain job's effective input says control_offsets = 0 (left out, control samples would be used)")
     check(abs(c["volume"] - 4 * math.pi / 3) <= 4 * c["volume_standard_error"],
           f"volume {c['volume']} = 4 pi / 3 within 4 standard errors ({c['volume_standard_error']})")
     check(not (Path(workdir) / "sphere.h5.continuum_checkpoint").exists(), "no checkpoint left after a finished job")
@@ -204,9 +209,11 @@ def main(beadmob, mpiexec, ranks, workdir):
                       + control[level == k].mean(0) for k in range(1, 5)])
     check(np.allclose(means, np.asarray(cc["level_mobility"]).reshape(4, 36), rtol=1e-12, atol=1e-15),
           "controlled: each level's mean is mean(y - x) over the full samples + mean(x) over all")
-    seconds = np.asarray(cc["sample_seconds"]).reshape(-1)
-    check(np.median(seconds[(full == 0) & (level == 4)]) < np.median(seconds[(full == 1) & (level == 4)]),
-          "controlled: a control sample (order 1 alone) is cheaper than a full one (order 2 and its companion)")
+    # Iterations, not seconds: a test must not time a loaded machine.
+    iterations = np.asarray(cc["sample_iterations"]).reshape(-1)
+    check(np.max(iterations[(full == 0) & (level == 4)]) < np.min(iterations[(full == 1) & (level == 4)]),
+          "controlled: a control sample (order 1 alone, looser tolerance) takes fewer Krylov iterations than a full "
+          "one (order 2 and its control)")
     checkpoint = Path(workdir) / "controlled_stopped.h5.continuum_checkpoint"
     checkpoint.unlink(missing_ok=True)
     nml = write_input(workdir, "controlled_stopped.nml", "controlled_stopped.h5", SPHERE + controlled_ladder)
