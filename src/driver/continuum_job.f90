@@ -845,6 +845,7 @@ contains
     type(continuum_value_t) :: fit
     real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
     real(dp) :: relative_volume_error, volume_power(41), to_shape_units(6, 6), nan
+    real(dp) :: body_grand(6 + n_strain_modes, 6 + n_strain_modes), sample_grand(6 + n_strain_modes, 6 + n_strain_modes)
     integer :: s, k, q, n, levels, row, column
     integer, allocatable :: members(:), full_members(:)
     logical :: controlled
@@ -902,11 +903,11 @@ contains
         if (result%flow) then
           result%sample_velocity_per_strain(:, s) = nan
           result%sample_stresslet_per_strain(:, s) = nan
-          if (p%full) call sample_flow(p%grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
-                                       ellipsoid_grand_resistance(sample_semi, sample_axes), &
-                                       result%sample_velocity_per_strain(:, s), result%sample_stresslet_per_strain(:, s))
-          if (controlled) call sample_flow(p%control_grand, d, ellipsoid_grand_resistance(true_semi, true_axes), &
-                                           ellipsoid_grand_resistance(sample_semi, sample_axes), &
+          body_grand = ellipsoid_grand_resistance(true_semi, true_axes)
+          sample_grand = ellipsoid_grand_resistance(sample_semi, sample_axes)
+          if (p%full) call sample_flow(p%grand, d, body_grand, sample_grand, result%sample_velocity_per_strain(:, s), &
+                                       result%sample_stresslet_per_strain(:, s))
+          if (controlled) call sample_flow(p%control_grand, d, body_grand, sample_grand, &
                                            result%sample_control_velocity_per_strain(:, s), &
                                            result%sample_control_stresslet_per_strain(:, s))
         end if
@@ -944,17 +945,10 @@ contains
     do k = 1, levels
       members = pack([(s, s = 1, n)], result%sample_level == k)
       full_members = pack(members, samples(members)%full)
-      if (controlled) then
-        call means_of_level(result%sample_mobility, result%sample_control_mobility, result%level_mobility(:, k), &
-                            result%level_mobility_error(:, k))
-        call means_of_level(result%sample_coefficients, result%sample_control_coefficients, &
-                            result%level_coefficients(:, k), result%level_coefficient_error(:, k))
-      else
-        call means_of_level(result%sample_mobility, result%sample_mobility, result%level_mobility(:, k), &
-                            result%level_mobility_error(:, k))
-        call means_of_level(result%sample_coefficients, result%sample_coefficients, result%level_coefficients(:, k), &
-                            result%level_coefficient_error(:, k))
-      end if
+      call means_of_level(result%sample_mobility, result%level_mobility(:, k), result%level_mobility_error(:, k), &
+                          result%sample_control_mobility)
+      call means_of_level(result%sample_coefficients, result%level_coefficients(:, k), &
+                          result%level_coefficient_error(:, k), result%sample_control_coefficients)
     end do
     do q = 1, 36
       row = modulo(q - 1, 6) + 1
@@ -981,13 +975,15 @@ contains
 
     !> Level k's mean of every quantity (rows of values, a column per sample) over `members` and
     !> its standard error; with control samples the controlled mean (T18: the order L - 1 solves
-    !> `controls` on all members correct the mean over the full ones).
-    subroutine means_of_level(values, controls, mean, error)
-      real(dp), intent(in) :: values(:, :), controls(:, :)
+    !> `controls` on all members correct the mean over the full ones). The sample_control_*
+    !> arrays are allocated only with control samples, and an unallocated one is not present.
+    subroutine means_of_level(values, mean, error, controls)
+      real(dp), intent(in) :: values(:, :)
       real(dp), intent(out) :: mean(:), error(:)
+      real(dp), intent(in), optional :: controls(:, :)
       integer :: row
       do row = 1, size(values, 1)
-        if (controlled) then
+        if (present(controls)) then
           call controlled_level_mean(values(row, full_members), controls(row, full_members), controls(row, members), &
                                      mean(row), error(row))
         else
@@ -1025,17 +1021,10 @@ contains
       do k = 1, levels
         members = pack([(s, s = 1, n)], result%sample_level == k)
         full_members = pack(members, samples(members)%full)
-        if (controlled) then
-          call means_of_level(result%sample_velocity_per_strain, result%sample_control_velocity_per_strain, &
-                              result%level_velocity_per_strain(:, k), result%level_velocity_per_strain_error(:, k))
-          call means_of_level(result%sample_stresslet_per_strain, result%sample_control_stresslet_per_strain, &
-                              result%level_stresslet_per_strain(:, k), result%level_stresslet_per_strain_error(:, k))
-        else
-          call means_of_level(result%sample_velocity_per_strain, result%sample_velocity_per_strain, &
-                              result%level_velocity_per_strain(:, k), result%level_velocity_per_strain_error(:, k))
-          call means_of_level(result%sample_stresslet_per_strain, result%sample_stresslet_per_strain, &
-                              result%level_stresslet_per_strain(:, k), result%level_stresslet_per_strain_error(:, k))
-        end if
+        call means_of_level(result%sample_velocity_per_strain, result%level_velocity_per_strain(:, k), &
+                            result%level_velocity_per_strain_error(:, k), result%sample_control_velocity_per_strain)
+        call means_of_level(result%sample_stresslet_per_strain, result%level_stresslet_per_strain(:, k), &
+                            result%level_stresslet_per_strain_error(:, k), result%sample_control_stresslet_per_strain)
       end do
       do q = 1, nv
         row = modulo(q - 1, 6) + 1
