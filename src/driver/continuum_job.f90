@@ -62,9 +62,6 @@ module beadmob_continuum_job
   integer, parameter :: max_samples_per_level = 64
   !> A control solve's Krylov tolerance over the job's (control_settings).
   real(dp), parameter :: control_tolerance_factor = 10.0_dp
-  !> spread_diameters: a level's samples have bead diameters d (1 + w s), |s| < 1, w = (r - 1) /
-  !> (r + 1) with r = 2**(1/3) the ladder's step (sample_bead_diameter).
-  real(dp), parameter :: spread_half_width = (2.0_dp**(1.0_dp / 3.0_dp) - 1.0_dp) / (2.0_dp**(1.0_dp / 3.0_dp) + 1.0_dp)
 
   !> What a sample carries in the checkpoint beyond the sample_numbers every job's has: a flow
   !> job's grand resistance; a controlled job's full-sample flag and order L - 1 friction, and
@@ -186,8 +183,7 @@ contains
         if (config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, survey%calibration)
       end if
       do level = 1, size(diameters)
-        if (abs(sample_bead_diameter(config, diameters(level), 1) - pilot%bead_diameter) <= &
-            1.0e-9_dp * pilot%bead_diameter) then
+        if (abs(diameters(level) - pilot%bead_diameter) <= 1.0e-9_dp * pilot%bead_diameter) then
           pilot%level = level
           samples = [samples, pilot]
         end if
@@ -264,11 +260,9 @@ contains
       start = MPI_Wtime()
       sample%full = j <= config%continuum%offsets
       sample_config = config
-      call build_at(ctx, config, mesh, survey%turns, d, j, sample_model, err, sample_config, &
-                    sample_bead_diameter(config, d, j))
+      call build_at(ctx, config, mesh, survey%turns, d, j, sample_model, err, sample_config)
       if (.not. err%failed .and. size(sample_model%centres, 2) < 2) &
-        call raise(err, '&continuum: ' // str(size(sample_model%centres, 2)) // ' beads at bead diameter ' // &
-                   str(sample_config%shape%bead_diameter) // &
+        call raise(err, '&continuum: ' // str(size(sample_model%centres, 2)) // ' beads at bead diameter ' // str(d) // &
                    ': the shape is too small for this resolution')
       if (err%failed) return
       call check_bead_model(sample_model, config%overlap_tolerance, err)
@@ -278,9 +272,9 @@ contains
       sample%level = level
       sample%offset_index = j
       sample%beads = size(sample_model%centres, 2)
-      sample%bead_diameter = sample_config%shape%bead_diameter
+      sample%bead_diameter = d
       sample%offset = sample_config%shape%lattice_offset
-      sample%moments = moments_in_input_frame(sample_model%centres, sample%bead_diameter, survey%turns, j, d)
+      sample%moments = moments_in_input_frame(sample_model%centres, d, survey%turns, j)
       sample%converged = 1
       ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
       ! friction_job.F90 turns its solve axes back).
@@ -299,7 +293,7 @@ contains
       end if
       sample%seconds = MPI_Wtime() - start
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
-        'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', sample%bead_diameter, ', ', &
+        'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
         sample%iterations, ' iterations, ', sample%seconds, ' s' // either(sample%full, '', ' (control sample)')
 
     end function solve_sample
@@ -340,10 +334,8 @@ contains
   !> (offset_sequence: well spread over the unit cell; j = 0: no offset) and, with turns, of
   !> axes lattice_axes(turns, d, j) (j >= 1): the centres are then in the lattice's frame
   !> (moments_in_input_frame, input_frame_turn turn back); `used` gets the config.
-  !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes. `spacing`:
-  !> the lattice's bead diameter when it is not the level's d (spread diameters), d naming the
-  !> level (its turns).
-  subroutine build_at(ctx, config, mesh, turns, d, j, model, err, used, spacing)
+  !> `mesh`: shape 'mesh' read once (read_mesh_once), unused for the other shapes.
+  subroutine build_at(ctx, config, mesh, turns, d, j, model, err, used)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
@@ -353,13 +345,11 @@ contains
     type(bead_model_t), intent(out) :: model
     type(error_t), intent(inout) :: err
     type(run_config_t), intent(inout), optional :: used
-    real(dp), intent(in), optional :: spacing
     type(run_config_t) :: c
     type(triangle_mesh_t) :: turned
     real(dp) :: axes(3, 3)
     c = config
     c%shape%bead_diameter = d
-    if (present(spacing)) c%shape%bead_diameter = spacing
     c%shape%lattice_offset = offset_sequence(j)
     if (config%shape%name == 'mesh' .and. turns%enabled .and. j >= 1) then
       ! The body in the lattice's frame: x' = pivot + Q^T (x - pivot) (rank 0 holds the mesh).
@@ -420,21 +410,18 @@ contains
 
   !> The moments (shape units, input frame) of beads at `centres` (d, in the frame of lattice j:
   !> build_at), turned back about the pivot: x = pivot + Q (x' - pivot).
-  pure function moments_in_input_frame(centres, d, turns, j, level_d) result(moments)
+  pure function moments_in_input_frame(centres, d, turns, j) result(moments)
     real(dp), intent(in) :: centres(:, :), d
     type(lattice_turns_t), intent(in) :: turns
     integer, intent(in) :: j
-    real(dp), intent(in), optional :: level_d
     type(body_moments_t) :: moments
-    real(dp) :: pivot(3), named_by
-    named_by = d
-    if (present(level_d)) named_by = level_d
+    real(dp) :: pivot(3)
     if (.not. (turns%enabled .and. j >= 1)) then
       moments = moments_of_beads(centres, d)
     else
       pivot = turns%pivot / d
       moments = moments_of_beads(spread(pivot, 2, size(centres, 2)) + &
-                                 matmul(lattice_axes(turns, named_by, j), centres - spread(pivot, 2, size(centres, 2))), d)
+                                 matmul(lattice_axes(turns, d, j), centres - spread(pivot, 2, size(centres, 2))), d)
     end if
   end function moments_in_input_frame
 
@@ -444,23 +431,6 @@ contains
     integer, intent(in) :: k
     level_diameter = config%shape%bead_diameter * 2.0_dp**(k / 3.0_dp)
   end function level_diameter
-
-  !> The bead diameter of sample j of the level of bead diameter d: d itself, or with
-  !> spread_diameters d (1 + w s_j) (T18 "Spread diameters"), w = spread_half_width: the levels'
-  !> ranges [d (1 - w), d (1 + w)] tile the bead diameters between them; s_j = +t_i, -t_i for j = 2i - 1, 2i, t_i = frac(1/2 + i g) (g the golden
-  !> ratio's fraction: every prefix well spread over (0, 1)), so every pair, and so any even
-  !> number of samples, has the mean bead diameter d.
-  pure real(dp) function sample_bead_diameter(config, d, j)
-    type(run_config_t), intent(in) :: config
-    real(dp), intent(in) :: d
-    integer, intent(in) :: j
-    real(dp), parameter :: golden_fraction = 0.6180339887498949_dp
-    real(dp) :: t
-    sample_bead_diameter = d
-    if (.not. config%continuum%spread_diameters .or. j < 1) return
-    t = modulo(0.5_dp + ((j + 1) / 2) * golden_fraction, 1.0_dp)
-    sample_bead_diameter = d * (1.0_dp + spread_half_width * merge(t, -t, modulo(j, 2) == 1))
-  end function sample_bead_diameter
 
   !> Collective. The friction job of c on a sample's beads (centres, d units) into job_result; its
   !> solves' record (iterations, convergence, largest residual) added to the sample's.
@@ -506,7 +476,7 @@ contains
     type(error_t), intent(inout) :: err
     type(bead_model_t) :: model
     type(body_moments_t) :: moments
-    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(25), beads, coarsest_sample
+    real(dp) :: semi_axes(3), axes(3, 3), d, numbers(25), beads
     type(error_t) :: no_axes
     integer :: ierr
     d = config%shape%bead_diameter
@@ -542,10 +512,8 @@ contains
     survey%thinnest = minval(semi_axes)
     ! beads(k) ~ beads 2**(-k) >= minimum_coarsest_beads, and d_k = d 2**(k/3) <= 2 thinnest
     ! (a bead across the thinnest extent; the budget then chooses how much finer to go).
-    ! With spread diameters a level's coarsest sample has bead diameter d_k (1 + w).
-    coarsest_sample = merge(1.0_dp + spread_half_width, 1.0_dp, config%continuum%spread_diameters)
-    survey%coarsest = min(floor(log(beads / coarsest_sample**3 / minimum_coarsest_beads) / log(2.0_dp)), &
-                          floor(3.0_dp * log(2.0_dp * survey%thinnest / (coarsest_sample * d)) / log(2.0_dp)))
+    survey%coarsest = min(floor(log(beads / minimum_coarsest_beads) / log(2.0_dp)), &
+                          floor(3.0_dp * log(2.0_dp * survey%thinnest / d) / log(2.0_dp)))
     survey%finest = survey%coarsest - config%continuum%levels + 1 - ladder_span
     allocate (survey%beads(survey%finest:survey%coarsest), survey%seconds(survey%finest:survey%coarsest), &
               survey%control_seconds(survey%finest:survey%coarsest))
@@ -880,15 +848,12 @@ contains
     real(dp) :: body_grand(6 + n_strain_modes, 6 + n_strain_modes), sample_grand(6 + n_strain_modes, 6 + n_strain_modes)
     integer :: s, k, q, n, levels, row, column
     integer, allocatable :: members(:), full_members(:)
-    real(dp), allocatable :: level_diameters(:)
-    logical :: controlled, spread_levels
+    logical :: controlled
 
     n = size(samples)
     levels = size(diameters)
     nan = ieee_value(0.0_dp, ieee_quiet_nan)
     controlled = config%continuum%control_offsets > 0
-    spread_levels = config%continuum%spread_diameters
-    level_diameters = diameters
     result%control_offsets = config%continuum%control_offsets
     result%offsets = config%continuum%offsets
     result%multipole_order = config%hydrodynamics%multipole_order
@@ -906,7 +871,7 @@ contains
     allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
     allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
-    allocate (result%sample_moments(13, n), result%sample_lattice_axes(9, n), result%sample_bead_diameter(n))
+    allocate (result%sample_moments(13, n), result%sample_lattice_axes(9, n))
     result%turned_lattices = turns%enabled
     result%lattice_pivot = turns%pivot
     result%flow = config%hydrodynamics%flow
@@ -920,11 +885,10 @@ contains
       associate (p => samples(s), d => samples(s)%bead_diameter)
         result%sample_level(s) = p%level
         result%sample_beads(s) = p%beads
-        result%sample_bead_diameter(s) = p%bead_diameter
         result%sample_iterations(s) = p%iterations
         result%sample_converged(s) = p%converged
         result%sample_offset(:, s) = p%offset
-        result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, diameters(p%level), p%offset_index), [9])
+        result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%bead_diameter, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
@@ -981,27 +945,21 @@ contains
     do k = 1, levels
       members = pack([(s, s = 1, n)], result%sample_level == k)
       full_members = pack(members, samples(members)%full)
-      ! With spread diameters the fit's abscissa is the level's mean bead diameter (d but for an
-      ! odd number of samples).
-      if (spread_levels) level_diameters(k) = sum(samples(members)%bead_diameter) / size(members)
       call means_of_level(result%sample_mobility, result%level_mobility(:, k), result%level_mobility_error(:, k), &
                           result%sample_control_mobility)
       call means_of_level(result%sample_coefficients, result%level_coefficients(:, k), &
                           result%level_coefficient_error(:, k), result%sample_control_coefficients)
     end do
-    result%bead_diameters = level_diameters
-    result%spread_diameters = spread_levels
     do q = 1, 36
       row = modulo(q - 1, 6) + 1
       column = (q - row) / 6 + 1
-      fit = extrapolate_to_zero(level_diameters, result%level_mobility(q, :), result%level_mobility_error(q, :), 0.0_dp)
+      fit = extrapolate_to_zero(diameters, result%level_mobility(q, :), result%level_mobility_error(q, :), 0.0_dp)
       result%mobility(row, column) = fit%value
       result%mobility_error(row, column) = fit%error + abs(fit%value) * volume_power(q) / 3.0_dp * relative_volume_error
       result%mobility_level_excess(row, column) = fit%excess_deviation
     end do
     do q = 1, 5
-      fit = extrapolate_to_zero(level_diameters, result%level_coefficients(q, :), result%level_coefficient_error(q, :), &
-                                0.0_dp)
+      fit = extrapolate_to_zero(diameters, result%level_coefficients(q, :), result%level_coefficient_error(q, :), 0.0_dp)
       result%coefficients(q) = fit%value
       result%coefficient_error(q) = fit%error + abs(fit%value) * volume_power(36 + q) / 3.0_dp * relative_volume_error
       result%coefficient_standard_error(q) = fit%standard_error
@@ -1025,15 +983,9 @@ contains
       real(dp), intent(in), optional :: controls(:, :)
       integer :: row
       do row = 1, size(values, 1)
-        if (present(controls) .and. spread_levels) then
-          call controlled_level_mean(values(row, full_members), controls(row, full_members), controls(row, members), &
-                                     mean(row), error(row), samples(full_members)%bead_diameter, &
-                                     samples(members)%bead_diameter)
-        else if (present(controls)) then
+        if (present(controls)) then
           call controlled_level_mean(values(row, full_members), controls(row, full_members), controls(row, members), &
                                      mean(row), error(row))
-        else if (spread_levels) then
-          call level_mean(values(row, members), mean(row), error(row), samples(members)%bead_diameter)
         else
           call level_mean(values(row, members), mean(row), error(row))
         end if
@@ -1077,7 +1029,7 @@ contains
       do q = 1, nv
         row = modulo(q - 1, 6) + 1
         column = (q - row) / 6 + 1
-        fit = extrapolate_to_zero(level_diameters, result%level_velocity_per_strain(q, :), &
+        fit = extrapolate_to_zero(diameters, result%level_velocity_per_strain(q, :), &
                                   result%level_velocity_per_strain_error(q, :), 0.0_dp)
         power = merge(1.0_dp, 0.0_dp, row <= 3)
         result%velocity_per_strain(row, column) = fit%value
@@ -1086,7 +1038,7 @@ contains
       do q = 1, nt
         row = modulo(q - 1, n_strain_modes) + 1
         column = (q - row) / n_strain_modes + 1
-        fit = extrapolate_to_zero(level_diameters, result%level_stresslet_per_strain(q, :), &
+        fit = extrapolate_to_zero(diameters, result%level_stresslet_per_strain(q, :), &
                                   result%level_stresslet_per_strain_error(q, :), 0.0_dp)
         result%stresslet_per_strain(row, column) = fit%value
         result%stresslet_per_strain_error(row, column) = fit%error + abs(fit%value) * relative_volume_error

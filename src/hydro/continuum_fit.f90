@@ -27,10 +27,7 @@ module beadmob_continuum_fit
     !> factor on the dry run's estimates (1 without a pilot).
     character(len=:), allocatable :: chosen_by
     real(dp) :: calibration = 1.0_dp
-    !> Per level, coarsest first: its bead diameter, with spread_diameters its samples' mean (the
-    !> fit's abscissa; each sample's in sample_bead_diameter).
-    real(dp), allocatable :: bead_diameters(:)
-    logical :: spread_diameters = .false.
+    real(dp), allocatable :: bead_diameters(:)                  ! per level, coarsest first
     !> The body from the moment fills: volume and its standard error, centroid, the equivalent
     !> ellipsoid's semi-axes and axes (columns).
     real(dp) :: volume = 0.0_dp, volume_error = 0.0_dp, centroid(3) = 0.0_dp
@@ -44,7 +41,6 @@ module beadmob_continuum_fit
     !> coefficients (5).
     integer, allocatable :: sample_level(:), sample_beads(:), sample_iterations(:), sample_converged(:)
     real(dp), allocatable :: sample_offset(:, :), sample_residual(:), sample_seconds(:), sample_symmetry_error(:)
-    real(dp), allocatable :: sample_bead_diameter(:)
     real(dp), allocatable :: sample_friction(:, :), sample_mobility(:, :), sample_coefficients(:, :)
     !> Per sample: the volume, first (3) and second (9, column-major) moments of its beads (shape
     !> units: body_moments_t), from which its correction was made.
@@ -104,21 +100,14 @@ module beadmob_continuum_fit
 contains
 
   !> Mean over a level's samples and its standard error (sample standard deviation / sqrt(n)).
-  !> With `diameters` (each sample's bead diameter, spread over the level: T18 "Spread
-  !> diameters") the scatter is counted about the samples' straight line in d, not their mean:
-  !> the spread's trend in d is no error of the mean, whose d is the samples' mean d.
-  pure subroutine level_mean(samples, mean, standard_error, diameters)
+  pure subroutine level_mean(samples, mean, standard_error)
     real(dp), intent(in) :: samples(:)
     real(dp), intent(out) :: mean, standard_error
-    real(dp), intent(in), optional :: diameters(:)
-    real(dp) :: slope
-    integer :: n, trend_terms
+    integer :: n
     n = size(samples)
     mean = sum(samples) / n
-    call spread_trend(samples, diameters, slope, trend_terms)
     standard_error = 0.0_dp
-    if (n > trend_terms) standard_error = sqrt(sum((detrended(samples, diameters, slope) - mean)**2) / &
-                                               (n - trend_terms) / n)
+    if (n > 1) standard_error = sqrt(sum((samples - mean)**2) / (n - 1) / n)
   end subroutine level_mean
 
   !> A level's mean of y with a control variate x (docs/theory.md T18): y and x_paired on the
@@ -127,16 +116,12 @@ contains
   !> the m is unbiased for the level's offset average of y, and where y - x scatters far less than
   !> y it has nearly the standard error of x's mean over m; its variance
   !>     var(y - x) / n + (var(x) + 2 cov(y - x, x)) / m,
-  !> the covariance from the n pairs (each of the n is one of the m), var(x) from the m. With
-  !> the samples' bead diameters (d_paired, d_all: spread diameters) x's scatter is counted about
-  !> its straight line in d over the m (level_mean).
-  pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error, d_paired, d_all)
+  !> the covariance from the n pairs (each of the n is one of the m), var(x) from the m.
+  pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error)
     real(dp), intent(in) :: y(:), x_paired(:), x_all(:)
     real(dp), intent(out) :: mean, standard_error
-    real(dp), intent(in), optional :: d_paired(:), d_all(:)
-    real(dp) :: difference(size(y)), difference_mean, x_mean, variance, slope
-    real(dp) :: x_paired_residual(size(y)), x_all_residual(size(x_all))
-    integer :: n, m, trend_terms
+    real(dp) :: difference(size(y)), difference_mean, x_mean, variance
+    integer :: n, m
     n = size(y)
     m = size(x_all)
     difference = y - x_paired
@@ -144,47 +129,13 @@ contains
     x_mean = sum(x_all) / m
     mean = difference_mean + x_mean
     standard_error = 0.0_dp
-    call spread_trend(x_all, d_all, slope, trend_terms)
-    if (n < 2 .or. m <= trend_terms) return
-    x_all_residual = detrended(x_all, d_all, slope)
-    x_paired_residual = x_paired
-    if (present(d_paired) .and. present(d_all)) x_paired_residual = x_paired - slope * (d_paired - sum(d_all) / m)
+    if (n < 2 .or. m < 2) return
     variance = sum((difference - difference_mean)**2) / (n - 1) / n
-    variance = variance + max(sum((x_all_residual - x_mean)**2) / (m - trend_terms) + &
-                              2.0_dp * sum((difference - difference_mean) * &
-                                           (x_paired_residual - sum(x_paired_residual) / n)) / (n - 1), &
+    variance = variance + max(sum((x_all - x_mean)**2) / (m - 1) + &
+                              2.0_dp * sum((difference - difference_mean) * (x_paired - sum(x_paired) / n)) / (n - 1), &
                               0.0_dp) / m
     standard_error = sqrt(variance)
   end subroutine controlled_level_mean
-
-  !> The least-squares slope of values in diameters and the degrees of freedom a scatter about
-  !> it loses (2: mean and slope); without diameters, or too few samples or one diameter for a
-  !> line (n <= 2), no slope (1: the mean alone).
-  pure subroutine spread_trend(values, diameters, slope, trend_terms)
-    real(dp), intent(in) :: values(:)
-    real(dp), intent(in), optional :: diameters(:)
-    real(dp), intent(out) :: slope
-    integer, intent(out) :: trend_terms
-    real(dp) :: centred(size(values))
-    slope = 0.0_dp
-    trend_terms = 1
-    if (.not. present(diameters)) return
-    if (size(values) <= 2) return
-    centred = diameters - sum(diameters) / size(diameters)
-    if (sum(centred**2) <= (1.0e-12_dp * maxval(abs(diameters)))**2) return
-    slope = sum(centred * values) / sum(centred**2)
-    trend_terms = 2
-  end subroutine spread_trend
-
-  !> values less their trend slope * (d - mean d); unchanged without diameters. Its mean is theirs.
-  pure function detrended(values, diameters, slope) result(residual)
-    real(dp), intent(in) :: values(:)
-    real(dp), intent(in), optional :: diameters(:)
-    real(dp), intent(in) :: slope
-    real(dp) :: residual(size(values))
-    residual = values
-    if (present(diameters)) residual = values - slope * (diameters - sum(diameters) / size(diameters))
-  end function detrended
 
   !> The extrapolation of (h_k, mean_k +- standard_error_k), k = 1..K (K >= 3, any order of h);
   !> `extra` is added to the error bar.

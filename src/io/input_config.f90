@@ -70,10 +70,6 @@ module beadmob_input_config
     !> With control samples: after the ladder is chosen, the rest of the time budget buys more
     !> control samples on every level (up to 64 samples per level; docs/theory.md T18).
     logical :: fill_budget = .false.
-    !> Each level's samples spread their bead diameters over the level's share of the ladder
-    !> (d (1 + w s), |s| <= 1, one ladder step wide), so a level averages the lattice's resonance
-    !> with the body's flat faces (docs/theory.md T18 "Spread diameters").
-    logical :: spread_diameters = .false.
   end type continuum_settings_t
 
   !> The continuum job's samples per level when the input leaves them out: at multipole_order
@@ -157,10 +153,10 @@ contains
     type(error_t), intent(inout) :: err
     real(dp) :: time_budget, finest_bead_diameter, turn_angle
     integer :: levels, offsets, moment_fills, control_offsets, status
-    logical :: turned_lattices, fill_budget, spread_diameters
+    logical :: turned_lattices, fill_budget
     character(len=512) :: message
     namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices, &
-                         turn_angle, control_offsets, fill_budget, spread_diameters
+                         turn_angle, control_offsets, fill_budget
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -171,7 +167,6 @@ contains
     finest_bead_diameter = settings%finest_bead_diameter
     turned_lattices = settings%turned_lattices
     fill_budget = settings%fill_budget
-    spread_diameters = settings%spread_diameters
     turn_angle = settings%turn_angle
     control_offsets = settings%control_offsets
     read (lines, nml=continuum, iostat=status, iomsg=message)
@@ -200,8 +195,7 @@ contains
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
                                     moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
                                     turned_lattices=turned_lattices, turn_angle=turn_angle, &
-                                    control_offsets=control_offsets, fill_budget=fill_budget, &
-                                    spread_diameters=spread_diameters)
+                                    control_offsets=control_offsets, fill_budget=fill_budget)
   end subroutine read_continuum_group
 
   !> The samples per level an input leaves out (default_*_offsets above): control samples
@@ -590,7 +584,6 @@ contains
       ! text must say 0 to rerun as one.
       text = text // '  control_offsets = ' // str(config%continuum%control_offsets) // new_line('a')
       if (config%continuum%fill_budget) text = text // '  fill_budget = .true.' // new_line('a')
-      if (config%continuum%spread_diameters) text = text // '  spread_diameters = .true.' // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

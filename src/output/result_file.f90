@@ -411,8 +411,6 @@ contains
     call write_attribute(group, 'sample_iterations', c%sample_iterations, err)
     call write_attribute(group, 'sample_converged', c%sample_converged, err)
     call write_replicated_dataset(ctx, group, 'sample_offset', c%sample_offset, err)
-    call write_replicated_dataset(ctx, group, 'sample_bead_diameter', c%sample_bead_diameter, err)
-    call write_attribute(group, 'spread_diameters', merge(1, 0, c%spread_diameters), err)
     call write_attribute(group, 'turned_lattices', merge(1, 0, c%turned_lattices), err)
     call write_replicated_dataset(ctx, group, 'sample_lattice_axes', c%sample_lattice_axes, err)
     call write_replicated_dataset(ctx, group, 'lattice_pivot', c%lattice_pivot, err)

@@ -5,8 +5,7 @@
 !> ellipsoid friction against the sphere (Stokes: 6 pi a, 8 pi a^3) and the prolate spheroid's
 !> closed forms (Happel & Brenner 1965, sec. 4-30; Kim & Karrila 1991, table 3.4), turned into
 !> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one, and two
-!> levels whose offsets all gave the same beads (zero scatter) do not pin it; level means of
-!> samples with spread bead diameters count their scatter about the line in d.
+!> levels whose offsets all gave the same beads (zero scatter) do not pin it.
 program test_continuum_fit
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
@@ -18,7 +17,6 @@ program test_continuum_fit
   type(continuum_value_t) :: fit
   real(dp) :: friction(6, 6), identity(3, 3), rotation(3, 3), a, b, e, l, axial, transverse, h(5), y(5), se(5)
   real(dp) :: mean, error, h7(7), y7(7), se7(7)
-  real(dp), parameter :: spread_d(4) = [0.9_dp, 1.1_dp, 0.95_dp, 1.05_dp]
   type(continuum_value_t) :: shared_scatter
   integer :: k
 
@@ -103,17 +101,5 @@ program test_continuum_fit
   call check_close(suite, mean, 2.5_dp, 1.0e-14_dp, 'controlled mean: a constant control changes nothing')
   call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-14_dp, &
                    'controlled mean: nor its standard error')
-  ! Spread diameters (theory.md T18): samples on a straight line in their bead diameters d
-  ! scatter about it by e alone (here e is orthogonal to d's deviations, so the least-squares
-  ! line is 2 + 3 d exactly): the mean is the plain one, the standard error sqrt(sum e^2 / (n - 2) / n).
-  call level_mean(2.0_dp + 3.0_dp * spread_d + [0.1_dp, 0.1_dp, -0.1_dp, -0.1_dp], mean, error, spread_d)
-  call check_close(suite, mean, 5.0_dp, 1.0e-14_dp, 'spread level mean: the plain mean')
-  call check_close(suite, error, sqrt(0.04_dp / 2.0_dp / 4.0_dp), 1.0e-13_dp, &
-                   'spread level mean: the scatter about the line in d, n - 2 degrees of freedom')
-  ! A control exactly linear in d and y - x constant: no error left.
-  call controlled_level_mean(10.0_dp + 3.0_dp * spread_d(1:2), 3.0_dp * spread_d(1:2), 3.0_dp * spread_d, mean, error, &
-                             spread_d(1:2), spread_d)
-  call check_close(suite, mean, 13.0_dp, 1.0e-14_dp, 'spread controlled mean')
-  call check(suite, error < 1.0e-12_dp, 'spread controlled mean: a control linear in d has no error')
   call finish_tests(suite)
 end program test_continuum_fit
