@@ -61,7 +61,7 @@ module beadmob_continuum_job
   !> fill_budget's limit of a level's samples (the turns of turned lattices are numbered for 64).
   integer, parameter :: max_samples_per_level = 64
   !> A control solve's Krylov tolerance over the job's (control_settings).
-  real(dp), parameter :: control_tolerance_factor = 10.0_dp
+  real(dp), parameter :: control_tolerance_factor = 5.0_dp
 
   !> What a sample carries in the checkpoint beyond the sample_numbers every job's has: a flow
   !> job's grand resistance; a controlled job's full-sample flag and order L - 1 friction, and
@@ -134,7 +134,14 @@ contains
     config = input_config
     call check_continuum_input(config, err)
     if (err%failed) return
-    key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.))
+    ! With control samples the key holds their Krylov tolerance too (not an input): a checkpoint of
+    ! controls solved at another tolerance is not resumed (they must be computed alike).
+    if (config%continuum%control_offsets > 0) then
+      key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.) // ' control rtol ' // &
+                      str(control_tolerance_factor * solve_rtol(config%hydrodynamics)))
+    else
+      key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.))
+    end if
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
@@ -598,10 +605,13 @@ contains
   end subroutine sample_estimates
 
   !> The control problem of a sample (docs/theory.md T18, "Control samples"): the friction job at
-  !> order L - 1 (companion_orders) with ten times the job's Krylov tolerance. A control needs no
+  !> order L - 1 (companion_orders) with five times the job's Krylov tolerance. A control needs no
   !> accuracy, only to be computed alike on every sample (the level's mean stays unbiased) and to
-  !> follow the order-L sample's scatter: at 1e-2 its solver error (-0.22 % on a 3-D cross) varies
-  !> by 0.005-0.02 % between samples, against their 0.2-0.9 % scatter, and it costs half the 1e-3 solve.
+  !> follow the order-L sample's scatter. At 1e-2 the Krylov solves stop after 3-9 iterations, and
+  !> which iteration meets the tolerance moved a bent rod's solver error by 0.26 % between two
+  !> offsets of its 171k-bead level (0.35 % against 0.085 % in one entry); at 5e-3 (8-19
+  !> iterations) the two differ by 0.02 % at most, for 1.18 times the run time (3e-3: 0.005 %,
+  !> 1.75 times; docs/theory.md T18).
   pure function control_settings(config) result(control)
     type(run_config_t), intent(in) :: config
     type(run_config_t) :: control
