@@ -37,7 +37,7 @@ triangle's centroid from the smooth body it stands for (the dumbbell's union, th
 the rough sphere's radius function; 0 for the cross).
 
 Every job: `&shape ... bead_diameter /`, `&hydrodynamics /`, `&continuum time_budget = S /`
-(default 600 s; every other setting default: 7 levels x 4 offsets, 32 moment fills) on 2 ranks,
+(default 600 s; every other setting default: 7 levels x 2 offsets and 6 control samples, 4 plain offsets before 2026-11-28, 32 moment fills) on 2 ranks,
 `-keep_checkpoint`, in DIR/<key>/ (default bench/continuum/nonconvex_runs; body.obj, job.nml,
 job.h5, job.log, job.h5.continuum_checkpoint, meta.json). `--continuum TEXT` replaces the group's
 contents (tiny test jobs: `levels = 3, offsets = 2, finest_bead_diameter = ...`).
