@@ -20,13 +20,15 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    finest_bead_diameter whose coarsest level would hold fewer than 100 beads, turned_lattices for
    an analytic shape (beadmob turns meshes only).
 5. --estimate prints the ladder and writes nothing; the samples per level left out resolve to 2
-   offsets and 6 control samples at order 2, to 4 plain offsets at order 1; with fill_budget the
-   ladder has more than 6 control samples and its estimate stays within the budget.
+   offsets and 6 control samples at order 2, to 4 plain offsets at order 1; with fill_budget at
+   half again the plain ladder's estimate the ladder has more than 6 control samples and its
+   estimate stays within the budget.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
    against Stokes; per level 2 samples solved at L = 2 and 3 control samples at L = 1 (their
-   order-L values NaN, their controls finite, fewer Krylov iterations per sample); each level's
+   order-L values NaN, their controls finite and solved to 5e-3, fewer Krylov iterations per
+   sample); each level's
    mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
