@@ -136,12 +136,10 @@ contains
     if (err%failed) return
     ! With control samples the key holds their Krylov tolerance too (not an input): a checkpoint of
     ! controls solved at another tolerance is not resumed (they must be computed alike).
-    if (config%continuum%control_offsets > 0) then
-      key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.) // ' control rtol ' // &
-                      str(control_tolerance_factor * solve_rtol(config%hydrodynamics)))
-    else
-      key = fnv1a_hex(effective_input_text(input_config, numbers_only=.true.))
-    end if
+    key = effective_input_text(input_config, numbers_only=.true.)
+    if (config%continuum%control_offsets > 0) key = key // ' control rtol ' // &
+                                                  str(control_rtol(config))
+    key = fnv1a_hex(key)
     checkpoint = trim(config%output) // continuum_checkpoint_suffix
     finest = -1.0_dp
     allocate (samples(0))
@@ -618,9 +616,15 @@ contains
     control = config
     call companion_orders(config%hydrodynamics%multipole_order, config%hydrodynamics%potential_order, &
                           control%hydrodynamics%multipole_order, control%hydrodynamics%potential_order)
-    control%hydrodynamics%krylov_rtol = control_tolerance_factor * solve_rtol(config%hydrodynamics)
+    control%hydrodynamics%krylov_rtol = control_rtol(config)
     control%hydrodynamics%krylov_rtol_on_command_line = .false.
   end function control_settings
+
+  !> The Krylov tolerance of a control solve: control_tolerance_factor times the job's.
+  pure real(dp) function control_rtol(config)
+    type(run_config_t), intent(in) :: config
+    control_rtol = control_tolerance_factor * solve_rtol(config%hydrodynamics)
+  end function control_rtol
 
   !> The estimated time (s) of a level's samples, ordinary and control, from one of each (sample_estimates).
   pure real(dp) function level_seconds(config, seconds, control_seconds)

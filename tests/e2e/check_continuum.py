@@ -28,8 +28,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
    against Stokes; per level 2 samples solved at L = 2 and 3 control samples at L = 1 (their
    order-L values NaN, their controls finite and solved to 5e-3, fewer Krylov iterations per
-   sample); each level's
-   mean is numpy's mean of y - x over the full samples plus the mean of x over all five; stopped
+   sample); each level's mean is numpy's mean of y - x over the full samples plus the mean of x
+   over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
    controlled alike. Refused: control_offsets with multipole_order = 1, below 0; fill_budget
