@@ -30,7 +30,8 @@ module beadmob_continuum_job
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
-                                   controlled_level_mean
+                                   controlled_level_mean, controlled_variance_parts
+  use beadmob_continuum_fill, only: next_fill_level
   use beadmob_job_plan, only: job_plan_t, solve_rtol
   use beadmob_friction_job, only: friction_of_plan, friction_result_t, companion_orders
   use beadmob_linear_flow, only: n_strain_modes, strain_rotation
@@ -116,7 +117,7 @@ contains
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: input_config
     type(error_t), intent(inout) :: err
-    type(run_config_t) :: config   ! the input's, with fill_budget's control samples
+    type(run_config_t) :: config
     type(continuum_sample_t), allocatable :: samples(:)
     type(continuum_result_t) :: result
     type(body_moments_t) :: body
@@ -125,12 +126,13 @@ contains
     type(triangle_mesh_t) :: mesh
     type(ladder_survey_t) :: survey
     real(dp), allocatable :: diameters(:), volumes(:)
-    real(dp) :: estimated_seconds, finest, estimate, control_round
+    real(dp) :: estimated_seconds, finest, estimate, job_start, resumed_seconds
     type(continuum_sample_t) :: pilot
-    logical :: budget_chooses
+    logical :: budget_chooses, fills
     character(len=:), allocatable :: key, checkpoint, chosen_by
     integer :: level, j, fill, solved_here, pilot_level, finest_level
 
+    job_start = MPI_Wtime()
     config = input_config
     call check_continuum_input(config, err)
     if (err%failed) return
@@ -145,6 +147,7 @@ contains
     allocate (samples(0))
     if (config%checkpoint) call read_checkpoint(ctx, checkpoint, key, layout_of(config), finest, samples, err)
     if (err%failed) return
+    resumed_seconds = sum(samples%seconds)
     ! A mesh is read and checked once; every fill of the job below uses it.
     if (config%shape%name == 'mesh') call read_mesh_once(ctx, config%shape, mesh, err)
     if (err%failed) return
@@ -158,19 +161,22 @@ contains
     budget_chooses = finest <= 0.0_dp .and. .not. is_set(config%continuum%finest_bead_diameter)
     if (budget_chooses) then
       chosen_by = 'time_budget'
-      call budget_ladder(ctx, config, mesh, survey, 1.0_dp, diameters, estimated_seconds, finest_level, control_round, err)
+      call budget_ladder(ctx, config, mesh, survey, 1.0_dp, diameters, estimated_seconds, finest_level, err)
       if (err%failed) return
       call pilot_level_of(ctx, config, mesh, survey, finest_level, pilot_level, err)
       if (err%failed) return
     else
       chosen_by = either(finest > 0.0_dp, 'checkpoint', 'finest_bead_diameter')
       call fixed_ladder(ctx, config, mesh, survey, merge(finest, config%continuum%finest_bead_diameter, finest > 0.0_dp), &
-                        diameters, estimated_seconds, control_round, err)
+                        diameters, estimated_seconds, err)
       if (err%failed) return
     end if
-    call fill_budget(input_config, control_round, 1.0_dp, config, estimated_seconds)
+    ! fill_budget: what a ladder the budget chose leaves of it goes to control samples once the
+    ! ladder's are solved (a ladder of finest_bead_diameter is the user's, not the budget's).
+    fills = config%continuum%fill_budget .and. config%continuum%control_offsets > 0 .and. &
+            .not. is_set(config%continuum%finest_bead_diameter)
     if (config%dry_run .or. config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, &
-                                                                1.0_dp, pilot_level)
+                                                                1.0_dp, fills, pilot_level)
     if (config%dry_run) return
     ! The dry run's estimates, calibrated by one pilot sample of about pilot_beads beads (kept when
     ! it lands on the ladder); a pilot slower than its estimate can only make the ladder coarser.
@@ -180,12 +186,9 @@ contains
       estimate = survey%seconds(pilot_level)
       if (estimate > 0.0_dp .and. pilot%beads >= minimum_coarsest_beads) survey%calibration = max(1.0_dp, pilot%seconds / estimate)
       if (survey%calibration > 1.0_dp) then
-        config = input_config
-        call budget_ladder(ctx, config, mesh, survey, survey%calibration, diameters, estimated_seconds, finest_level, &
-                           control_round, err)
+        call budget_ladder(ctx, config, mesh, survey, survey%calibration, diameters, estimated_seconds, finest_level, err)
         if (err%failed) return
-        call fill_budget(input_config, control_round, survey%calibration, config, estimated_seconds)
-        if (config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, survey%calibration)
+        if (config%progress) call print_ladder(ctx, config, survey, diameters, estimated_seconds, survey%calibration, fills)
       end if
       do level = 1, size(diameters)
         if (abs(diameters(level) - pilot%bead_diameter) <= 1.0e-9_dp * pilot%bead_diameter) then
@@ -210,20 +213,8 @@ contains
     do level = 1, size(diameters)
       do j = 1, config%continuum%offsets + config%continuum%control_offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
-        samples = [samples, solve_sample(level, j, diameters(level))]
+        call add_sample(level, j)
         if (err%failed) return
-        if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, layout_of(config), &
-                                                                           diameters(size(diameters)), samples, err)
-        call agree_on_error(ctx, err)
-        if (err%failed) return
-        ! The test stop of -stop_after_solves counts a continuum job's samples (a kill at a known
-        ! point: the checkpoint holds exactly these samples).
-        solved_here = solved_here + 1
-        if (solved_here == config%hydrodynamics%stop_after_solves) then
-          call raise(err, 'stopped after ' // str(solved_here) // ' samples as -stop_after_solves asks (a test of ' // &
-                     'the continuum checkpoint: rerun to resume)')
-          return
-        end if
       end do
     end do
 
@@ -235,11 +226,22 @@ contains
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
+    if (fills) then
+      do
+        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, &
+                           config%continuum%time_budget - (MPI_Wtime() - job_start + resumed_seconds), err)
+        if (err%failed) return
+        if (level == 0) exit
+        call add_sample(level, maxval(samples%offset_index, mask=samples%level == level) + 1)
+        if (err%failed) return
+      end do
+    end if
     result%reference_length = config%shape%reference_length
     if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
     call continuum_values(config, survey%turns, diameters, samples, body, volumes, frame%axes, result, err)
     if (err%failed) return
     result%estimated_seconds = estimated_seconds
+    result%filled = fills
     result%calibration = survey%calibration
     result%chosen_by = chosen_by
     call write_result_file(ctx, input_config, model, frame, err, continuum=result)
@@ -248,6 +250,23 @@ contains
     if (ctx%rank == 0) call print_continuum(config, result)
 
   contains
+
+    !> Collective. Solves sample j of `level` into samples and the checkpoint.
+    subroutine add_sample(level, j)
+      integer, intent(in) :: level, j
+      samples = [samples, solve_sample(level, j, diameters(level))]
+      if (err%failed) return
+      if (config%checkpoint .and. ctx%rank == 0) call write_checkpoint(checkpoint, key, layout_of(config), &
+                                                                         diameters(size(diameters)), samples, err)
+      call agree_on_error(ctx, err)
+      if (err%failed) return
+      ! The test stop of -stop_after_solves counts a continuum job's samples (a kill at a known
+      ! point: the checkpoint holds exactly these samples).
+      solved_here = solved_here + 1
+      if (solved_here == config%hydrodynamics%stop_after_solves) &
+        call raise(err, 'stopped after ' // str(solved_here) // ' samples as -stop_after_solves asks (a test of ' // &
+                   'the continuum checkpoint: rerun to resume)')
+    end subroutine add_sample
 
     !> Collective. Sample j of level `level` (bead diameter d): the friction job with the run's
     !> settings (no error bar of its own: the ladder's scatter and extrapolation are this job's).
@@ -262,6 +281,7 @@ contains
       type(body_frame_t) :: sample_frame
       type(friction_result_t) :: job_result
       real(dp) :: start, turn(6 + n_strain_modes, 6 + n_strain_modes)
+      integer :: ierr
       start = MPI_Wtime()
       sample%full = j <= config%continuum%offsets
       sample_config = config
@@ -296,7 +316,9 @@ contains
         sample%control = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
         if (job_result%flow) sample%control_grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
       end if
+      ! Rank 0's clock for all: the pilot's calibration and fill_budget decide by it.
       sample%seconds = MPI_Wtime() - start
+      call MPI_Bcast(sample%seconds, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
         'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
         sample%iterations, ' iterations, ', sample%seconds, ' s' // either(sample%full, '', ' (control sample)')
@@ -326,9 +348,6 @@ contains
     else if (config%continuum%turned_lattices .and. config%shape%name /= 'mesh') then
       call raise(err, "&continuum turned_lattices turns the body against the lattice, which beadmob does for " // &
                  "meshes only, not for shape '" // trim(config%shape%name) // "' (leave it out, or give the body as a mesh)")
-    else if (config%continuum%fill_budget .and. config%continuum%control_offsets == 0) then
-      call raise(err, '&continuum fill_budget spends the rest of the budget on control samples: it needs ' // &
-                 'control_offsets > 0 (and multipole_order >= 2)')
     else if (config%continuum%control_offsets > 0 .and. config%hydrodynamics%multipole_order < 2) then
       call raise(err, '&continuum control_offsets solves order L - 1 beside order L: it needs multipole_order >= 2, got ' // &
                  str(config%hydrodynamics%multipole_order))
@@ -633,35 +652,67 @@ contains
     level_seconds = config%continuum%offsets * seconds + config%continuum%control_offsets * control_seconds
   end function level_seconds
 
-  !> fill_budget (docs/theory.md T18, "Control samples"): the rest of the time budget, after a
-  !> ladder estimated at `estimated_seconds` with the input's control samples, spent on more
-  !> control samples on every level: as many as `control_round` (s, the estimate of one control
-  !> sample on each level) times `calibration` pays for, up to max_samples_per_level samples per
-  !> level in all. `filled` gets them; the estimate grows by their cost.
-  subroutine fill_budget(input, control_round, calibration, filled, estimated_seconds)
-    type(run_config_t), intent(in) :: input
-    real(dp), intent(in) :: control_round, calibration
-    type(run_config_t), intent(inout) :: filled
-    real(dp), intent(inout) :: estimated_seconds
-    real(dp) :: per_round
-    integer :: extra
-    filled%continuum%control_offsets = input%continuum%control_offsets
-    per_round = calibration * control_round
-    if (.not. input%continuum%fill_budget .or. per_round <= 0.0_dp .or. &
-        estimated_seconds >= input%continuum%time_budget) return
-    extra = floor(min((input%continuum%time_budget - estimated_seconds) / per_round, real(max_samples_per_level, dp)))
-    extra = min(extra, max_samples_per_level - input%continuum%offsets - input%continuum%control_offsets)
-    if (extra <= 0) return
-    filled%continuum%control_offsets = input%continuum%control_offsets + extra
-    estimated_seconds = estimated_seconds + extra * per_round
-  end subroutine fill_budget
+  !> Collective. fill_budget's next control sample (docs/theory.md T18, "Filling the budget"):
+  !> its level, or 0 when no level's next control sample fits in `seconds_left` (its cost: the mean
+  !> of the level's control samples so far) or none would narrow the bar. The quantities weighed
+  !> are the six diagonal mobility entries in the axes of the body's equivalent ellipsoid, each
+  !> relative to its continuum value so far; rank 0 decides for all (its clock).
+  integer function fill_level(ctx, config, turns, diameters, samples, body, volumes, axes, seconds_left, err) result(level)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(lattice_turns_t), intent(in) :: turns
+    real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3), seconds_left
+    type(continuum_sample_t), intent(in) :: samples(:)
+    type(body_moments_t), intent(in) :: body
+    type(error_t), intent(inout) :: err
+    type(continuum_result_t) :: so_far
+    real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
+    real(dp) :: frame(6, 6), entry(6), value
+    real(dp), allocatable :: y(:), x(:)
+    logical, allocatable :: on_level(:), full(:)
+    integer :: k, q, s, ierr
+    level = 0
+    if (ctx%rank == 0) then
+      call continuum_values(config, turns, diameters, samples, body, volumes, axes, so_far, err)
+      if (.not. err%failed) then
+        frame = 0.0_dp
+        frame(1:3, 1:3) = so_far%axes
+        frame(4:6, 4:6) = so_far%axes
+        full = samples%full
+        allocate (y(size(samples)), x(size(samples)))
+        do q = 1, 6
+          value = dot_product(frame(:, q), matmul(so_far%mobility, frame(:, q)))
+          do s = 1, size(samples)
+            entry = frame(:, q)
+            y(s) = dot_product(entry, matmul(reshape(so_far%sample_mobility(:, s), [6, 6]), entry)) / value
+            x(s) = dot_product(entry, matmul(reshape(so_far%sample_control_mobility(:, s), [6, 6]), entry)) / value
+          end do
+          do k = 1, size(diameters)
+            on_level = samples%level == k
+            call controlled_variance_parts(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
+                                           paired(q, k), per_control(q, k))
+          end do
+        end do
+        do k = 1, size(diameters)
+          on_level = samples%level == k .and. .not. full
+          costs(k) = 0.0_dp
+          if (count(on_level) > 0) costs(k) = sum(pack(samples%seconds, on_level)) / count(on_level)
+        end do
+        level = next_fill_level(diameters, paired, per_control, [(count(samples%level == k), k = 1, size(diameters))], &
+                                costs, seconds_left, max_samples_per_level)
+      end if
+    end if
+    call agree_on_error(ctx, err)
+    if (err%failed) return
+    call MPI_Bcast(level, 1, MPI_INTEGER, 0, ctx%comm, ierr)
+  end function fill_level
 
   !> Collective. The finest ladder whose levels all hold minimum_coarsest_beads (the coarsest
   !> is the fewest) and whose estimate times `calibration` fits the time budget. With none that
   !> fits: refused when uncalibrated (before any solve), naming the cheapest feasible ladder and
   !> its estimate; after a pilot (calibration > 1) the cheapest feasible ladder is run, with a
   !> warning, since the pilot has shown only that this machine is slower than the estimates.
-  subroutine budget_ladder(ctx, config, mesh, survey, calibration, diameters, estimated_seconds, chosen, control_round, err)
+  subroutine budget_ladder(ctx, config, mesh, survey, calibration, diameters, estimated_seconds, chosen, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
@@ -670,7 +721,6 @@ contains
     real(dp), allocatable, intent(out) :: diameters(:)
     real(dp), intent(out) :: estimated_seconds
     integer, intent(out) :: chosen     ! the finest level's index k
-    real(dp), intent(out) :: control_round   ! one control sample on every level (s, uncalibrated)
     type(error_t), intent(inout) :: err
     type(error_t) :: refused
     real(dp) :: total, cheapest_total
@@ -720,12 +770,11 @@ contains
         trim(seconds_text(cheapest_total)) // ', beyond the time budget: running it'
     end if
     diameters = [(level_diameter(config, k), k = chosen + levels - 1, chosen, -1)]
-    control_round = sum(max(survey%control_seconds(chosen:chosen + levels - 1), 0.0_dp))
   end subroutine budget_ladder
 
   !> Collective. The ladder ending at `finest` (finest_bead_diameter or a checkpoint's), refused
   !> before any solve when its coarsest level holds fewer than minimum_coarsest_beads beads.
-  subroutine fixed_ladder(ctx, config, mesh, survey, finest, diameters, estimated_seconds, control_round, err)
+  subroutine fixed_ladder(ctx, config, mesh, survey, finest, diameters, estimated_seconds, err)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(triangle_mesh_t), intent(in) :: mesh
@@ -733,7 +782,6 @@ contains
     real(dp), intent(in) :: finest
     real(dp), allocatable, intent(out) :: diameters(:)
     real(dp), intent(out) :: estimated_seconds
-    real(dp), intent(out) :: control_round   ! one control sample on every level (s)
     type(error_t), intent(inout) :: err
     type(run_config_t) :: c
     type(bead_model_t) :: model
@@ -743,7 +791,6 @@ contains
     levels = config%continuum%levels
     diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
     estimated_seconds = 0.0_dp
-    control_round = 0.0_dp
     do k = 1, levels
       call build_at(ctx, config, mesh, survey%turns, diameters(k), 1, model, err, c)
       if (err%failed) return
@@ -758,7 +805,6 @@ contains
       call sample_estimates(ctx, c, model%centres, seconds, control_seconds, refused)
       if (refused%failed) cycle
       estimated_seconds = estimated_seconds + level_seconds(config, seconds, control_seconds)
-      control_round = control_round + control_seconds
     end do
   end subroutine fixed_ladder
 
@@ -784,12 +830,13 @@ contains
   end subroutine pilot_level_of
 
   !> Rank 0 prints the ladder: its bead diameters and bead counts (first offset), the estimate,
-  !> and before the pilot, how the pilot may change it.
-  subroutine print_ladder(ctx, config, survey, diameters, estimated_seconds, calibration, pilot_level)
+  !> what fill_budget does with the rest (`fills`), and before the pilot, how the pilot may change it.
+  subroutine print_ladder(ctx, config, survey, diameters, estimated_seconds, calibration, fills, pilot_level)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(ladder_survey_t), intent(in) :: survey
     real(dp), intent(in) :: diameters(:), estimated_seconds, calibration
+    logical, intent(in) :: fills
     integer, intent(in), optional :: pilot_level
     integer :: k, levels, first
     if (ctx%rank /= 0) return
@@ -808,6 +855,10 @@ contains
     write (*, '(a, f0.0, a, f0.0, a, f0.2, a)') '  estimated time ', estimated_seconds, ' s (budget ', &
       config%continuum%time_budget, ' s; the dry run''s estimates times ', calibration, &
       either(calibration /= 1.0_dp, ', from a pilot solve)', ')')
+    if (fills .and. estimated_seconds < config%continuum%time_budget) write (*, '(a)') '  fill_budget: the rest, ' // &
+      'about ' // trim(seconds_text(config%continuum%time_budget - estimated_seconds)) // ', then buys control ' // &
+      'samples one at a time, each on the level where it narrows the bar most per second (up to ' // &
+      str(max_samples_per_level) // ' samples per level)'
     if (present(pilot_level)) then
       if (pilot_level /= huge(1)) write (*, '(a)') '  a run first solves a pilot of ' // str(survey%beads(pilot_level)) // &
         ' beads (bead diameter ' // trim(diameter_text(level_diameter(config, pilot_level))) // '); if it runs slower ' // &
@@ -1143,6 +1194,8 @@ contains
       ' levels x ' // str(c%offsets) // ' offsets' // either(c%control_offsets > 0, ' (+ ' // str(c%control_offsets) // &
       ' control offsets of order ' // str(c%multipole_order - 1) // ')', '') // ', ' // str(sum(c%sample_beads)) // &
       ' beads solved in all'
+    if (c%filled) write (*, '(a, *(1x, i0))') '  fill_budget: samples per level (coarsest first)', &
+      (count(c%sample_level == k), k = 1, size(c%bead_diameters))
     write (*, '(a, es12.5, a, es9.2, a)') '  volume ', c%volume, ' (+-', c%volume_error, '), equivalent ellipsoid'
     write (*, '(4x, 3es12.4)') c%semi_axes
     write (*, '(a)') '  level  bead diameter     mu11      mu22      mu33      mu42      mu51'

@@ -16,6 +16,7 @@ module beadmob_continuum_fit
   implicit none
   private
   public :: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean, continuum_result_t
+  public :: intercept_variance, controlled_variance_parts
 
   !> What a continuum job found (written to the result file's /continuum group, docs/output.md):
   !> the ladder, every solved sample, each level's means and the continuum values. Lengths in
@@ -57,6 +58,9 @@ module beadmob_continuum_fit
     !> corrected mobility and coefficients of every sample, as the order-L ones above.
     integer :: control_offsets = 0
     integer, allocatable :: sample_full(:)
+    !> fill_budget bought control samples beyond control_offsets with the rest of the budget (so
+    !> levels may hold different numbers of samples: sample_level counts them).
+    logical :: filled = .false.
     real(dp), allocatable :: sample_control_friction(:, :), sample_control_mobility(:, :)
     real(dp), allocatable :: sample_control_coefficients(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.
@@ -120,22 +124,31 @@ contains
   pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error)
     real(dp), intent(in) :: y(:), x_paired(:), x_all(:)
     real(dp), intent(out) :: mean, standard_error
-    real(dp) :: difference(size(y)), difference_mean, x_mean, variance
+    real(dp) :: paired, per_control
+    mean = sum(y - x_paired) / size(y) + sum(x_all) / size(x_all)
+    call controlled_variance_parts(y, x_paired, x_all, paired, per_control)
+    standard_error = sqrt(paired + per_control / size(x_all))
+  end subroutine controlled_level_mean
+
+  !> The two parts of controlled_level_mean's variance, paired + per_control / m: var(y - x) / n,
+  !> which more control samples leave as it is, and max(var(x) + 2 cov(y - x, x), 0), which they
+  !> divide (both 0 with fewer than two samples of either kind).
+  pure subroutine controlled_variance_parts(y, x_paired, x_all, paired, per_control)
+    real(dp), intent(in) :: y(:), x_paired(:), x_all(:)
+    real(dp), intent(out) :: paired, per_control
+    real(dp) :: difference(size(y)), difference_mean
     integer :: n, m
     n = size(y)
     m = size(x_all)
+    paired = 0.0_dp
+    per_control = 0.0_dp
+    if (n < 2 .or. m < 2) return
     difference = y - x_paired
     difference_mean = sum(difference) / n
-    x_mean = sum(x_all) / m
-    mean = difference_mean + x_mean
-    standard_error = 0.0_dp
-    if (n < 2 .or. m < 2) return
-    variance = sum((difference - difference_mean)**2) / (n - 1) / n
-    variance = variance + max(sum((x_all - x_mean)**2) / (m - 1) + &
-                              2.0_dp * sum((difference - difference_mean) * (x_paired - sum(x_paired) / n)) / (n - 1), &
-                              0.0_dp) / m
-    standard_error = sqrt(variance)
-  end subroutine controlled_level_mean
+    paired = sum((difference - difference_mean)**2) / (n - 1) / n
+    per_control = max(sum((x_all - sum(x_all) / m)**2) / (m - 1) + &
+                      2.0_dp * sum((difference - difference_mean) * (x_paired - sum(x_paired) / n)) / (n - 1), 0.0_dp)
+  end subroutine controlled_variance_parts
 
   !> The extrapolation of (h_k, mean_k +- standard_error_k), k = 1..K (K >= 3, any order of h);
   !> `extra` is added to the error bar.
@@ -145,11 +158,7 @@ contains
     real(dp) :: weights(size(h)), level_variance(size(h)), coefficients(3), variance, chi2
     integer :: order(size(h)), n
     n = size(h)
-    ! A few offsets can agree by chance: no level's standard error counts as less than a fifth of
-    ! the median level's (nor 1e-9 of its value), or that level alone would make the fit.
-    order = ranks_by_size(standard_error)
-    level_variance = max(standard_error, standard_error_floor * standard_error(order((n + 1) / 2)), &
-                         1.0e-9_dp * abs(mean), sqrt(tiny(1.0_dp)))**2
+    level_variance = floored_variance(standard_error, mean)
     ! Levels that scatter more than that (a lattice resonance, a smooth law the quadratic misses)
     ! share the excess: weights 1 / (s_k^2 + tau^2), whose chi^2 then equals its degrees of freedom.
     fit%excess_deviation = sqrt(excess_variance(h, mean, level_variance))
@@ -176,6 +185,28 @@ contains
     fit%error = hypot(2.0_dp * fit%standard_error, max(abs(fit%linear_value - fit%value), &
                                                        abs(fit%reduced_value - fit%value))) + extra
   end function extrapolate_to_zero
+
+  !> The variance of the quadratic's intercept over levels at h with these standard errors (floored
+  !> as extrapolate_to_zero floors them; no excess tau^2): what one more sample on a level would
+  !> change, before it is solved (continuum_fill.f90).
+  pure real(dp) function intercept_variance(h, standard_error)
+    real(dp), intent(in) :: h(:), standard_error(:)
+    real(dp) :: coefficients(3), chi2
+    call weighted_polynomial(h, 0.0_dp * h, 1.0_dp / floored_variance(standard_error, 0.0_dp * h), 2, coefficients, &
+                             intercept_variance, chi2)
+  end function intercept_variance
+
+  !> The levels' variances s_k^2 as the fit counts them. A few offsets can agree by chance: no
+  !> level's standard error counts as less than a fifth of the median level's (nor 1e-9 of its
+  !> value), or that level alone would make the fit.
+  pure function floored_variance(standard_error, mean) result(level_variance)
+    real(dp), intent(in) :: standard_error(:), mean(:)
+    real(dp) :: level_variance(size(standard_error))
+    integer :: order(size(standard_error))
+    order = ranks_by_size(standard_error)
+    level_variance = max(standard_error, standard_error_floor * standard_error(order((size(order) + 1) / 2)), &
+                         1.0e-9_dp * abs(mean), sqrt(tiny(1.0_dp)))**2
+  end function floored_variance
 
   !> The random-effects excess tau^2 >= 0 of the levels' variances s_k^2 (`level_variance`): the
   !> tau^2 at which the quadratic's chi^2 with weights 1 / (s_k^2 + tau^2) equals its degrees of

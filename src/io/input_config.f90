@@ -67,9 +67,10 @@ module beadmob_input_config
     !> corrects the level's (the `offsets` samples also solve order L - 1 on their beads: a
     !> control variate, docs/theory.md T18); 0: none.
     integer :: control_offsets = unset_int   ! resolve_continuum_defaults
-    !> With control samples: after the ladder is chosen, the rest of the time budget buys more
-    !> control samples on every level (up to 64 samples per level; docs/theory.md T18).
-    logical :: fill_budget = .false.
+    !> With control samples and a ladder the budget chose: once the ladder's samples are solved,
+    !> the rest of the time budget buys more control samples, one at a time on the level where
+    !> each narrows the bar most per second (up to 64 samples per level; docs/theory.md T18).
+    logical :: fill_budget = .true.
   end type continuum_settings_t
 
   !> The continuum job's samples per level when the input leaves them out: at multipole_order
@@ -583,7 +584,8 @@ contains
       ! Always: an input that leaves it out gets control samples by default, so a plain job's
       ! text must say 0 to rerun as one.
       text = text // '  control_offsets = ' // str(config%continuum%control_offsets) // new_line('a')
-      if (config%continuum%fill_budget) text = text // '  fill_budget = .true.' // new_line('a')
+      ! Only when off (the default is on): a default job's text stays that of earlier builds.
+      if (.not. config%continuum%fill_budget) text = text // '  fill_budget = .false.' // new_line('a')
       call add_real('finest_bead_diameter', config%continuum%finest_bead_diameter)
       text = text // '/' // new_line('a')
     end if

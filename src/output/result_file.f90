@@ -436,6 +436,7 @@ contains
     call write_replicated_dataset(ctx, group, 'mobility_level_excess', transpose(c%mobility_level_excess), err)
     call write_replicated_dataset(ctx, group, 'coefficient_level_excess', c%coefficient_level_excess, err)
     call write_attribute(group, 'control_offsets', c%control_offsets, err)
+    call write_attribute(group, 'fill_budget', merge(1, 0, c%filled), err)
     if (c%control_offsets > 0) then
       ! The control variate's samples (theory.md T18): order L - 1 on every sample's beads.
       call write_attribute(group, 'sample_full', c%sample_full, err)

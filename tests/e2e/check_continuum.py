@@ -20,9 +20,10 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    finest_bead_diameter whose coarsest level would hold fewer than 100 beads, turned_lattices for
    an analytic shape (beadmob turns meshes only).
 5. --estimate prints the ladder and writes nothing; the samples per level left out resolve to 2
-   offsets and 6 control samples at order 2, to 4 plain offsets at order 1; with fill_budget at
-   half again the plain ladder's estimate the ladder has more than 6 control samples and its
-   estimate stays within the budget.
+   offsets and 6 control samples at order 2, to 4 plain offsets at order 1; it names the rest of
+   the budget fill_budget spends (not with fill_budget = .false.). A run at half again a ladder's
+   estimate fills: its extra samples are control samples on offsets of their own, levels unequal,
+   the level means numpy's, the sphere within its bar of Stokes.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
@@ -32,8 +33,7 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
-   controlled alike. Refused: control_offsets with multipole_order = 1, below 0; fill_budget
-   without control samples."""
+   controlled alike. Refused: control_offsets with multipole_order = 1, below 0."""
 import math
 import os
 import re
@@ -236,8 +236,7 @@ def main(beadmob, mpiexec, ranks, workdir):
     for body, expected in (
             ("&shape name = 'sphere', radius = 1.0, bead_diameter = 0.25 /\n&hydrodynamics multipole_order = 1 /\n"
              + controlled_ladder, "needs multipole_order >= 2"),
-            (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256"),
-            (SPHERE + "&continuum control_offsets = 0, fill_budget = .true. /\n", "fill_budget spends the rest")):
+            (SPHERE + "&continuum control_offsets = -1 /\n", "control_offsets must be 0 to 256")):
         nml = write_input(workdir, "refused.nml", "refused.h5", body)
         (Path(workdir) / "refused.h5").unlink(missing_ok=True)   # of an earlier run of this test
         done = run(beadmob, mpiexec, ranks, workdir, nml)
@@ -276,21 +275,48 @@ def main(beadmob, mpiexec, ranks, workdir):
     done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
     check(done.returncode == 0 and "levels x 4 offsets, bead diameters" in done.stdout,
           "at multipole_order = 1 the default is 4 plain offsets (no lower order to control with)")
-    # fill_budget: the rest of the budget on more control samples, the estimate still within it. The
-    # budget is half again the default ladder's estimate at 300 s: the same ladder (a finer one
-    # costs about twice), with half its cost left to fill.
-    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 300 /\n")
+    # fill_budget (the default): the dry run says what is left of the budget for control samples
+    # after the ladder; off, it says nothing. At half again the estimate of the ladder a budget of
+    # 20 s chooses, the same ladder is chosen (a finer one costs about twice) with a third of the
+    # budget left.
+    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 20 /\n")
     done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
-    plain = re.search(r"estimated time ([0-9.]+) s \(budget 300\. s", done.stdout)
-    budget = round(1.5 * float(plain.group(1))) if plain else 450
-    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + f"&continuum time_budget = {budget}, fill_budget = .true. /\n")
+    plain = re.search(r"estimated time ([0-9.]+) s \(budget 20\. s", done.stdout)
+    rest = re.search(r"fill_budget: the rest, about ([0-9.]+) s", done.stdout)
+    check(plain is not None and rest is not None and abs(float(rest.group(1)) - (20 - float(plain.group(1)))) <= 1.0,
+          f"fill_budget: the dry run names the rest of the budget ({rest.group(0) if rest else None})")
+    nml = write_input(workdir, "dry.nml", "dry.h5", SPHERE + "&continuum time_budget = 20, fill_budget = .false. /\n")
     done = run(beadmob, mpiexec, ranks, workdir, nml, "--estimate")
-    ladder = re.search(r"7 levels x 2 offsets \(\+ (\d+) control samples", done.stdout)
-    estimate = re.search(rf"estimated time ([0-9.]+) s \(budget {budget}\. s", done.stdout)
-    check(done.returncode == 0 and plain is not None and ladder is not None and int(ladder.group(1)) > 6
-          and estimate is not None and float(estimate.group(1)) <= budget,
-          f"fill_budget: more control samples within the budget of {budget} s "
-          f"({ladder.group(1) if ladder else None} per level, estimate {estimate.group(1) if estimate else None} s)")
+    check(done.returncode == 0 and "estimated time" in done.stdout and "fill_budget" not in done.stdout,
+          "fill_budget = .false.: the dry run leaves the rest unspent")
+    # The run: the control samples it bought are control samples (order L - 1 alone) on numbered
+    # offsets of their level, levels hold different numbers of samples, each level's mean is still
+    # mean(y - x) over its full samples + mean(x) over all of them (numpy, on the unequal levels), and
+    # the sphere is within its bar of Stokes's mobility.
+    budget = round(1.5 * float(plain.group(1))) if plain else 20
+    nml = write_input(workdir, "filled.nml", "filled.h5", SPHERE + f"&continuum time_budget = {budget} /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    if done.returncode != 0:
+        sys.exit(f"the filled continuum job failed:\n{done.stdout}\n{done.stderr}")
+    fc = continuum(Path(workdir) / "filled.h5")
+    level = np.asarray(fc["sample_level"]).reshape(-1)
+    full = np.asarray(fc["sample_full"]).reshape(-1)
+    levels = len(np.asarray(fc["bead_diameters"]).reshape(-1))
+    counts = np.bincount(level, minlength=levels + 1)[1:]
+    check(fc["fill_budget"] == 1 and np.all(counts >= 8) and counts.max() > 8 and counts.max() <= 64
+          and all(np.sum(full[level == k]) == 2 for k in range(1, levels + 1)),
+          f"fill_budget: 2 full samples per level, 6 control samples and those the rest bought (per level {counts})")
+    offsets = np.asarray(fc["sample_offset"]).reshape(len(level), 3)
+    check(all(len({tuple(o) for o in offsets[level == k]}) == counts[k - 1] for k in range(1, levels + 1)),
+          "fill_budget: every sample of a level on its own lattice offset")
+    mobility, control = (np.asarray(fc[name]).reshape(len(level), 36) for name in ("sample_mobility", "sample_control_mobility"))
+    means = np.array([(mobility[(level == k) & (full == 1)] - control[(level == k) & (full == 1)]).mean(0)
+                      + control[level == k].mean(0) for k in range(1, levels + 1)])
+    check(np.allclose(means, np.asarray(fc["level_mobility"]).reshape(levels, 36), rtol=1e-12, atol=1e-15),
+          "fill_budget: each level's mean is mean(y - x) over its full samples + mean(x) over all, levels unequal")
+    deviation = np.abs(np.diag(fc["mobility"]) - exact)
+    check(np.all(deviation <= np.diag(fc["mobility_error"])),
+          f"fill_budget: the sphere within its bar of Stokes ({deviation / exact} against {np.diag(fc['mobility_error']) / exact})")
 
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")

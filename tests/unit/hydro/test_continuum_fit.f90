@@ -5,18 +5,22 @@
 !> ellipsoid friction against the sphere (Stokes: 6 pi a, 8 pi a^3) and the prolate spheroid's
 !> closed forms (Happel & Brenner 1965, sec. 4-30; Kim & Karrila 1991, table 3.4), turned into
 !> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one, and two
-!> levels whose offsets all gave the same beads (zero scatter) do not pin it.
+!> levels whose offsets all gave the same beads (zero scatter) do not pin it. fill_budget's choice
+!> (src/hydro/continuum_fill.f90) against the variance of an interpolating quadratic's value at 0,
+!> sum_k a_k^2 s_k^2 with the Lagrange weights a_k = prod_{j /= k} h_j / (h_j - h_k).
 program test_continuum_fit
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, carlson_rf, carlson_rd
-  use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean
+  use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean, &
+                                   intercept_variance
+  use beadmob_continuum_fill, only: next_fill_level
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp)
   type(test_suite_t) :: suite
   type(continuum_value_t) :: fit
   real(dp) :: friction(6, 6), identity(3, 3), rotation(3, 3), a, b, e, l, axial, transverse, h(5), y(5), se(5)
-  real(dp) :: mean, error, h7(7), y7(7), se7(7)
+  real(dp) :: mean, error, h7(7), y7(7), se7(7), h3(3), per_control(1, 3)
   type(continuum_value_t) :: shared_scatter
   integer :: k
 
@@ -101,5 +105,29 @@ program test_continuum_fit
   call check_close(suite, mean, 2.5_dp, 1.0e-14_dp, 'controlled mean: a constant control changes nothing')
   call check_close(suite, error, sqrt(5.0_dp / 3.0_dp / 4.0_dp), 1.0e-14_dp, &
                    'controlled mean: nor its standard error')
+
+  ! Three levels at h = 1, 2, 3: the quadratic interpolates them, a = (3, -3, 1), so the intercept's
+  ! variance is 9 s_1^2 + 9 s_2^2 + s_3^2 (none below the floor of a fifth of the median).
+  h3 = [1.0_dp, 2.0_dp, 3.0_dp]
+  call check_close(suite, intercept_variance(h3, [0.1_dp, 0.2_dp, 0.3_dp]), 9 * 0.01_dp + 9 * 0.04_dp + 0.09_dp, &
+                   1.0e-12_dp, 'intercept variance: the Lagrange weights of three levels')
+  ! One more control sample on level k lowers it by a_k^2 v (1/4 - 1/5) with four samples per level
+  ! and the same per-sample variance v: levels 1 and 2 (a^2 = 9) before level 3 (a^2 = 1); the
+  ! first of equal gains; per second, the cheaper; none where it is not affordable or capped.
+  per_control(1, :) = 0.04_dp
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+                                    10.0_dp, 64) == 1, 'fill: the largest Lagrange weight, the first of two equal')
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 0.5_dp, 1.0_dp], &
+                                    10.0_dp, 64) == 2, 'fill: the same gain for half the seconds')
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 0.1_dp], &
+                                    10.0_dp, 64) == 3, 'fill: a ninth of the gain for a tenth of the seconds')
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [64, 64, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+                                    10.0_dp, 64) == 3, 'fill: no level beyond its cap')
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+                                    0.5_dp, 64) == 0, 'fill: nothing that does not fit the seconds left')
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [0.0_dp, -1.0_dp, 1.0_dp], &
+                                    10.0_dp, 64) == 3, 'fill: no level of unknown cost')
+  call check(suite, next_fill_level(h3, per_control, 0.0_dp * per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+                                    10.0_dp, 64) == 0, 'fill: nothing where control samples cannot help')
   call finish_tests(suite)
 end program test_continuum_fit
