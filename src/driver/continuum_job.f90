@@ -113,11 +113,10 @@ module beadmob_continuum_job
 contains
 
   !> Collective. The continuum job of config (its &continuum group), result to config%output.
-  subroutine run_continuum_job(ctx, input_config, err)
+  subroutine run_continuum_job(ctx, config, err)
     type(run_context_t), intent(in) :: ctx
-    type(run_config_t), intent(in) :: input_config
+    type(run_config_t), intent(in) :: config
     type(error_t), intent(inout) :: err
-    type(run_config_t) :: config
     type(continuum_sample_t), allocatable :: samples(:)
     type(continuum_result_t) :: result
     type(body_moments_t) :: body
@@ -133,12 +132,11 @@ contains
     integer :: level, j, fill, solved_here, pilot_level, finest_level
 
     job_start = MPI_Wtime()
-    config = input_config
     call check_continuum_input(config, err)
     if (err%failed) return
     ! With control samples the key holds their Krylov tolerance too (not an input): a checkpoint of
     ! controls solved at another tolerance is not resumed (they must be computed alike).
-    key = effective_input_text(input_config, numbers_only=.true.)
+    key = effective_input_text(config, numbers_only=.true.)
     if (config%continuum%control_offsets > 0) key = key // ' control rtol ' // &
                                                   str(control_rtol(config))
     key = fnv1a_hex(key)
@@ -244,7 +242,7 @@ contains
     result%filled = fills
     result%calibration = survey%calibration
     result%chosen_by = chosen_by
-    call write_result_file(ctx, input_config, model, frame, err, continuum=result)
+    call write_result_file(ctx, config, model, frame, err, continuum=result)
     if (err%failed) return
     if (config%checkpoint .and. .not. config%keep_checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
     if (ctx%rank == 0) call print_continuum(config, result)

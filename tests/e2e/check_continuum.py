@@ -23,7 +23,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    offsets and 6 control samples at order 2, to 4 plain offsets at order 1; it names the rest of
    the budget fill_budget spends (not with fill_budget = .false.). A run at half again a ladder's
    estimate fills: its extra samples are control samples on offsets of their own, levels unequal,
-   the level means numpy's, the sphere within its bar of Stokes.
+   the level means numpy's, the sphere within its bar of Stokes; stopped in the fill and resumed,
+   it fills on from the checkpoint.
 6. A small cone's continuum coefficients are in the paper's frame (mu11 = mu22, mu33 > mu11,
    mu42 > 0 > mu51): the frame comes from the lattice without offset, which keeps the mirror planes.
 7. Control samples (control_offsets = 3 beside offsets = 2, T18): the sphere again within its bar
@@ -317,6 +318,29 @@ def main(beadmob, mpiexec, ranks, workdir):
     deviation = np.abs(np.diag(fc["mobility"]) - exact)
     check(np.all(deviation <= np.diag(fc["mobility_error"])),
           f"fill_budget: the sphere within its bar of Stokes ({deviation / exact} against {np.diag(fc['mobility_error']) / exact})")
+    # Stopped two samples into the fill (-stop_after_solves counts the samples solved after the
+    # pilot) and resumed: the checkpoint's samples come back as they were, and the fill goes on
+    # from there with control samples on offsets not yet used.
+    base = levels * 8
+    checkpoint = Path(workdir) / "filled_stopped.h5.continuum_checkpoint"
+    checkpoint.unlink(missing_ok=True)
+    nml = write_input(workdir, "filled_stopped.nml", "filled_stopped.h5", SPHERE + f"&continuum time_budget = {budget} /\n")
+    stopped = run(beadmob, mpiexec, ranks, workdir, nml, "-stop_after_solves", str(base + 1))
+    kept = checkpoint.read_text().splitlines()[1:] if checkpoint.exists() else []
+    done = run(beadmob, mpiexec, ranks, workdir, nml)
+    resumed = continuum(Path(workdir) / "filled_stopped.h5") if done.returncode == 0 else None
+    if resumed is None:
+        check(False, f"fill_budget: the resumed job failed:\n{done.stdout}\n{done.stderr}")
+    else:
+        level = np.asarray(resumed["sample_level"]).reshape(-1)
+        full = np.asarray(resumed["sample_full"]).reshape(-1)
+        offsets = np.asarray(resumed["sample_offset"]).reshape(len(level), 3)
+        counts = np.bincount(level, minlength=levels + 1)[1:]
+        check(stopped.returncode != 0 and len(kept) >= base + 1 and f"resuming with {len(kept)} samples" in done.stdout
+              and np.all(counts >= 8) and len(level) > len(kept) and np.all(full[len(kept):] == 0)
+              and all(len({tuple(o) for o in offsets[level == k]}) == counts[k - 1] for k in range(1, levels + 1)),
+              f"fill_budget: stopped in the fill with {len(kept)} samples and resumed, filled on to {len(level)} "
+              f"(per level {counts}), every sample of a level on its own offset")
 
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")
