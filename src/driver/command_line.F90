@@ -33,7 +33,7 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(20) = [ &
+  type(option_t), parameter :: options(21) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
@@ -62,6 +62,8 @@ module beadmob_command_line
              'relative error E of the mobility coefficients (bench/accuracy/accuracy.md)'), &
     option_t('stop_after_solves', 'K', integer_number, 'stop with an error once K solves (a continuum job: K ' // &
              'samples) are saved (a test of checkpoint and resume)'), &
+    option_t('fill_samples', 'K', integer_number, 'a continuum job''s fill_budget buys exactly K control ' // &
+             'samples, whatever the time (a test of its choices)'), &
     option_t('keep_checkpoint', '', switch, 'a continuum job keeps its checkpoint of samples when it ' // &
              'finishes: rerun, it extrapolates them again without solving (a newer build''s estimate)'), &
     option_t('hdf5_error_stack', '', switch, 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
@@ -349,6 +351,9 @@ contains
         call store_accuracy_target(value, job, err)
       case ('stop_after_solves')
         job%stop_after_solves = merge(whole, -1, whole >= 1)   ! the plan refuses -1
+      case ('fill_samples')
+        config%fill_samples = whole
+        if (whole < 1) call raise(err, '-fill_samples must be at least 1, got ' // value)
       case ('keep_checkpoint')
         config%keep_checkpoint = .true.
       case ('hdf5_error_stack')

@@ -125,7 +125,7 @@ contains
     type(triangle_mesh_t) :: mesh
     type(ladder_survey_t) :: survey
     real(dp), allocatable :: diameters(:), volumes(:)
-    real(dp) :: estimated_seconds, finest, estimate, job_start, resumed_seconds
+    real(dp) :: estimated_seconds, finest, estimate, job_start, resumed_seconds, seconds_left
     type(continuum_sample_t) :: pilot
     logical :: budget_chooses, fills
     character(len=:), allocatable :: key, checkpoint, chosen_by
@@ -226,8 +226,15 @@ contains
     if (err%failed) return
     if (fills) then
       do
-        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, &
-                           config%continuum%time_budget - (MPI_Wtime() - job_start + resumed_seconds), err)
+        ! What is left of the budget: this process's wall time and the resumed samples' seconds
+        ! (-fill_samples, a test: a number of samples instead, counted with the resumed ones).
+        seconds_left = config%continuum%time_budget - (MPI_Wtime() - job_start + resumed_seconds)
+        if (config%fill_samples > 0) then
+          if (count(samples%offset_index > config%continuum%offsets + config%continuum%control_offsets) >= &
+              config%fill_samples) exit
+          seconds_left = huge(1.0_dp)
+        end if
+        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, seconds_left, err)
         if (err%failed) return
         if (level == 0) exit
         call add_sample(level, maxval(samples%offset_index, mask=samples%level == level) + 1)

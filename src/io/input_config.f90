@@ -104,6 +104,9 @@ module beadmob_input_config
     integer :: estimate_ranks = 0
     real(dp) :: memory_limit_gib = 0.0_dp
     logical :: hdf5_error_stack = .false., keep_checkpoint = .false.
+    !> Test option -fill_samples K: a continuum job's fill_budget buys exactly K control samples in
+    !> all, whatever the time (0: as many as the time budget pays for)
+    integer :: fill_samples = 0
   end type run_config_t
 
 contains
