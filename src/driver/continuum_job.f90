@@ -224,6 +224,8 @@ contains
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
+    result%reference_length = config%shape%reference_length
+    if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
     if (fills) then
       do
         ! What is left of the budget: this process's wall time and the resumed samples' seconds
@@ -234,15 +236,14 @@ contains
               config%fill_samples) exit
           seconds_left = huge(1.0_dp)
         end if
-        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, seconds_left, err)
+        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, &
+                           result%reference_length, seconds_left, err)
         if (err%failed) return
         if (level == 0) exit
         call add_sample(level, maxval(samples%offset_index, mask=samples%level == level) + 1)
         if (err%failed) return
       end do
     end if
-    result%reference_length = config%shape%reference_length
-    if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
     call continuum_values(config, survey%turns, diameters, samples, body, volumes, frame%axes, result, err)
     if (err%failed) return
     result%estimated_seconds = estimated_seconds
@@ -662,11 +663,12 @@ contains
   !> of the level's control samples so far) or none would narrow the bar. The quantities weighed
   !> are the six diagonal mobility entries in the axes of the body's equivalent ellipsoid, each
   !> relative to its continuum value so far; rank 0 decides for all (its clock).
-  integer function fill_level(ctx, config, turns, diameters, samples, body, volumes, axes, seconds_left, err) result(level)
+  integer function fill_level(ctx, config, turns, diameters, samples, body, volumes, axes, reference_length, seconds_left, &
+                              err) result(level)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
     type(lattice_turns_t), intent(in) :: turns
-    real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3), seconds_left
+    real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3), reference_length, seconds_left
     type(continuum_sample_t), intent(in) :: samples(:)
     type(body_moments_t), intent(in) :: body
     type(error_t), intent(inout) :: err
@@ -678,6 +680,7 @@ contains
     integer :: k, q, s, ierr
     level = 0
     if (ctx%rank == 0) then
+      so_far%reference_length = reference_length   ! of the coefficients, as the job's result
       call continuum_values(config, turns, diameters, samples, body, volumes, axes, so_far, err)
       if (.not. err%failed) then
         frame = 0.0_dp
