@@ -110,6 +110,13 @@ module beadmob_continuum_job
     real(dp), allocatable :: seconds(:), control_seconds(:)
   end type ladder_survey_t
 
+  !> A sample corrected for the body its lattice gave it (docs/theory.md T18, step 2): mobility
+  !> (36) and coefficients (5) about the body's centroid in the shape's unit, and the same of its
+  !> order L - 1 solve (control samples); NaN where nothing was solved.
+  type :: corrected_sample_t
+    real(dp) :: mobility(36), coefficients(5), control_mobility(36), control_coefficients(5)
+  end type corrected_sample_t
+
 contains
 
   !> Collective. The continuum job of config (its &continuum group), result to config%output.
@@ -127,6 +134,7 @@ contains
     real(dp), allocatable :: diameters(:), volumes(:)
     real(dp) :: estimated_seconds, finest, estimate, job_start, resumed_seconds, seconds_left
     type(continuum_sample_t) :: pilot
+    type(corrected_sample_t), allocatable :: corrected(:)   ! fill_budget's, of samples(1:size(corrected))
     logical :: budget_chooses, fills
     character(len=:), allocatable :: key, checkpoint, chosen_by
     integer :: level, j, fill, solved_here, pilot_level, finest_level
@@ -227,6 +235,7 @@ contains
     result%reference_length = config%shape%reference_length
     if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
     if (fills) then
+      allocate (corrected(0))
       do
         ! What is left of the budget: this process's wall time and the resumed samples' seconds
         ! (-fill_samples, a test: a number of samples instead, counted with the resumed ones).
@@ -236,8 +245,8 @@ contains
               config%fill_samples) exit
           seconds_left = huge(1.0_dp)
         end if
-        level = fill_level(ctx, config, survey%turns, diameters, samples, body, volumes, frame%axes, &
-                           result%reference_length, seconds_left, err)
+        level = fill_level(ctx, config, diameters, samples, body, frame%axes, result%reference_length, corrected, &
+                           seconds_left, err)
         if (err%failed) return
         if (level == 0) exit
         call add_sample(level, maxval(samples%offset_index, mask=samples%level == level) + 1)
@@ -662,44 +671,56 @@ contains
   !> its level, or 0 when no level's next control sample fits in `seconds_left` (its cost: the mean
   !> of the level's control samples so far) or none would narrow the bar. The quantities weighed
   !> are the six diagonal mobility entries in the axes of the body's equivalent ellipsoid, each
-  !> relative to its continuum value so far; rank 0 decides for all (its clock).
-  integer function fill_level(ctx, config, turns, diameters, samples, body, volumes, axes, reference_length, seconds_left, &
+  !> relative to its extrapolation so far; rank 0 decides for all (its clock). `corrected` holds
+  !> rank 0's corrected samples: only those added since the last call are corrected here, and
+  !> only the six quantities weighed are fitted (a decision costs no more than a sample's share).
+  integer function fill_level(ctx, config, diameters, samples, body, axes, reference_length, corrected, seconds_left, &
                               err) result(level)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: config
-    type(lattice_turns_t), intent(in) :: turns
-    real(dp), intent(in) :: diameters(:), volumes(:), axes(3, 3), reference_length, seconds_left
+    real(dp), intent(in) :: diameters(:), axes(3, 3), reference_length, seconds_left
     type(continuum_sample_t), intent(in) :: samples(:)
     type(body_moments_t), intent(in) :: body
+    type(corrected_sample_t), allocatable, intent(inout) :: corrected(:)
     type(error_t), intent(inout) :: err
-    type(continuum_result_t) :: so_far
+    type(corrected_sample_t) :: one
+    type(continuum_value_t) :: fit
     real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
-    real(dp) :: frame(6, 6), entry(6), value
-    real(dp), allocatable :: y(:), x(:)
-    logical, allocatable :: on_level(:), full(:)
+    real(dp) :: means(size(diameters)), errors(size(diameters)), frame(6, 6), semi(3), ellipsoid_axes(3, 3)
+    real(dp) :: y(size(samples)), x(size(samples))
+    logical :: on_level(size(samples)), full(size(samples))
     integer :: k, q, s, ierr
     level = 0
     if (ctx%rank == 0) then
-      so_far%reference_length = reference_length   ! of the coefficients, as the job's result
-      call continuum_values(config, turns, diameters, samples, body, volumes, axes, so_far, err)
+      do s = size(corrected) + 1, size(samples)
+        call correct_sample(samples(s), body, axes, reference_length, config%continuum%control_offsets > 0, one, err)
+        if (err%failed) exit
+        corrected = [corrected, one]
+      end do
+      if (.not. err%failed) call equivalent_ellipsoid(body, 0.0_dp, semi, ellipsoid_axes, err)
       if (.not. err%failed) then
         frame = 0.0_dp
-        frame(1:3, 1:3) = so_far%axes
-        frame(4:6, 4:6) = so_far%axes
+        frame(1:3, 1:3) = ellipsoid_axes
+        frame(4:6, 4:6) = ellipsoid_axes
         full = samples%full
-        allocate (y(size(samples)), x(size(samples)))
         do q = 1, 6
-          value = dot_product(frame(:, q), matmul(so_far%mobility, frame(:, q)))
-          do s = 1, size(samples)
-            entry = frame(:, q)
-            y(s) = dot_product(entry, matmul(reshape(so_far%sample_mobility(:, s), [6, 6]), entry)) / value
-            x(s) = dot_product(entry, matmul(reshape(so_far%sample_control_mobility(:, s), [6, 6]), entry)) / value
-          end do
+          associate (entry => frame(:, q))
+            do s = 1, size(samples)
+              y(s) = dot_product(entry, matmul(reshape(corrected(s)%mobility, [6, 6]), entry))
+              x(s) = dot_product(entry, matmul(reshape(corrected(s)%control_mobility, [6, 6]), entry))
+            end do
+          end associate
           do k = 1, size(diameters)
             on_level = samples%level == k
+            call controlled_level_mean(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
+                                       means(k), errors(k))
             call controlled_variance_parts(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
                                            paired(q, k), per_control(q, k))
           end do
+          ! Relative to the entry's value, so that every entry counts alike.
+          fit = extrapolate_to_zero(diameters, means, errors, 0.0_dp)
+          paired(q, :) = paired(q, :) / fit%value**2
+          per_control(q, :) = per_control(q, :) / fit%value**2
         end do
         do k = 1, size(diameters)
           on_level = samples%level == k .and. .not. full
@@ -914,10 +935,10 @@ contains
     type(body_moments_t), intent(in) :: body
     type(continuum_result_t), intent(inout) :: result
     type(error_t), intent(inout) :: err
-    type(mobility_result_t) :: mobility
+    type(corrected_sample_t) :: corrected
     type(continuum_value_t) :: fit
-    real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), scale(6), mean, volume_spread
-    real(dp) :: relative_volume_error, volume_power(41), to_shape_units(6, 6), nan
+    real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), mean, volume_spread
+    real(dp) :: relative_volume_error, volume_power(41), nan
     real(dp) :: body_grand(6 + n_strain_modes, 6 + n_strain_modes), sample_grand(6 + n_strain_modes, 6 + n_strain_modes)
     integer :: s, k, q, n, levels, row, column
     integer, allocatable :: members(:), full_members(:)
@@ -965,15 +986,15 @@ contains
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
         result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
-        ! To the shape's unit: force per velocity ~ length, torque per angular velocity ~ length^3.
-        scale = [d, d, d, d**2, d**2, d**2]
-        to_shape_units = spread(scale, 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
-        ! The lattice's volume and shape of the body at this offset against the body's own: the
-        ! ratio of the equivalent ellipsoids' exact frictions (both with a cell's d^2 / 12).
-        call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
-        if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
+        call correct_sample(p, body, axes, result%reference_length, controlled, corrected, err)
         if (err%failed) return
+        result%sample_mobility(:, s) = corrected%mobility
+        result%sample_coefficients(:, s) = corrected%coefficients
         if (result%flow) then
+          ! The equivalent ellipsoids (with a cell's d^2 / 12) correct the flow as the friction.
+          call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
+          if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
+          if (err%failed) return
           result%sample_velocity_per_strain(:, s) = nan
           result%sample_stresslet_per_strain(:, s) = nan
           body_grand = ellipsoid_grand_resistance(true_semi, true_axes)
@@ -984,21 +1005,17 @@ contains
                                            result%sample_control_velocity_per_strain(:, s), &
                                            result%sample_control_stresslet_per_strain(:, s))
         end if
+        result%sample_symmetry_error(s) = nan   ! a control sample: nothing solved at order L
+        result%sample_friction(:, s) = nan
         if (p%full) then
           result%sample_symmetry_error(s) = norm2(p%friction - transpose(p%friction)) / norm2(p%friction)
           result%sample_friction(:, s) = reshape(p%friction, [36])
-          call corrected_mobility(p%friction * to_shape_units, result%sample_mobility(:, s), result%sample_coefficients(:, s))
-        else   ! a control sample: nothing solved at order L
-          result%sample_symmetry_error(s) = nan
-          result%sample_friction(:, s) = nan
-          result%sample_mobility(:, s) = nan
-          result%sample_coefficients(:, s) = nan
         end if
         if (controlled) then
           result%sample_full(s) = merge(1, 0, p%full)
           result%sample_control_friction(:, s) = reshape(p%control, [36])
-          call corrected_mobility(p%control * to_shape_units, result%sample_control_mobility(:, s), &
-                                  result%sample_control_coefficients(:, s))
+          result%sample_control_mobility(:, s) = corrected%control_mobility
+          result%sample_control_coefficients(:, s) = corrected%control_coefficients
         end if
         if (err%failed) return
       end associate
@@ -1065,24 +1082,6 @@ contains
       end do
     end subroutine means_of_level
 
-    !> A sample's friction (shape units) corrected by the ratio of the body's and the sample's
-    !> equivalent ellipsoids (true_* and sample_* of the loop above), as mobility and coefficients.
-    subroutine corrected_mobility(solved, sample_mobility, sample_coefficients)
-      real(dp), intent(in) :: solved(6, 6)
-      real(dp), intent(out) :: sample_mobility(36), sample_coefficients(5)
-      real(dp) :: corrected(6, 6)
-      sample_mobility = nan
-      sample_coefficients = nan
-      if (err%failed) return
-      corrected = scaled_by_ratio(solved, ellipsoid_friction(true_semi, true_axes), &
-                                  ellipsoid_friction(sample_semi, sample_axes))
-      corrected = 0.5_dp * (corrected + transpose(corrected))
-      call compute_mobility(corrected, result%centroid, axes, result%reference_length, mobility, err)
-      if (err%failed) return
-      sample_mobility = reshape(mobility%mobility, [36])
-      sample_coefficients = mobility%coefficients
-    end subroutine corrected_mobility
-
     !> The flow's response (theory.md T19) extrapolated entry by entry as the mobility's: the
     !> velocity per strain (translation ~ length, rotation ~ length^0) and the stresslet per strain
     !> (~ length^3), each with the volume's share in its bar.
@@ -1147,6 +1146,52 @@ contains
     velocity = reshape(v, [6 * n_strain_modes])
     stresslet = reshape(t, [n_strain_modes**2])
   end subroutine sample_flow
+
+  !> Sample p corrected for the body its lattice gave it (docs/theory.md T18, step 2): its friction
+  !> (and with control samples its order L - 1 friction) in the shape's unit, scaled by the ratio
+  !> of the body's and its own equivalent ellipsoids' exact frictions (both with a lattice cell's
+  !> d^2 / 12), as mobility and coefficients about the body's centroid in the frame `axes`.
+  subroutine correct_sample(p, body, axes, reference_length, controlled, corrected, err)
+    type(continuum_sample_t), intent(in) :: p
+    type(body_moments_t), intent(in) :: body
+    real(dp), intent(in) :: axes(3, 3), reference_length
+    logical, intent(in) :: controlled
+    type(corrected_sample_t), intent(out) :: corrected
+    type(error_t), intent(inout) :: err
+    real(dp) :: true_axes(3, 3), true_semi(3), sample_axes(3, 3), sample_semi(3), to_shape_units(6, 6), nan
+    real(dp) :: body_friction(6, 6), sample_friction(6, 6)
+    nan = ieee_value(0.0_dp, ieee_quiet_nan)
+    corrected = corrected_sample_t(nan, nan, nan, nan)
+    associate (d => p%bead_diameter)
+      ! Force per velocity ~ length, torque per angular velocity ~ length^3.
+      to_shape_units = spread([d, d, d, d**2, d**2, d**2], 2, 6) * spread([1.0_dp, 1.0_dp, 1.0_dp, d, d, d], 1, 6)
+      call equivalent_ellipsoid(p%moments, d**2 / 12.0_dp, sample_semi, sample_axes, err)
+      if (.not. err%failed) call equivalent_ellipsoid(body, d**2 / 12.0_dp, true_semi, true_axes, err)
+    end associate
+    if (err%failed) return
+    body_friction = ellipsoid_friction(true_semi, true_axes)
+    sample_friction = ellipsoid_friction(sample_semi, sample_axes)
+    if (p%full) call mobility_of(p%friction, corrected%mobility, corrected%coefficients)
+    if (controlled) call mobility_of(p%control, corrected%control_mobility, corrected%control_coefficients)
+
+  contains
+
+    subroutine mobility_of(solved, mobility, coefficients)
+      real(dp), intent(in) :: solved(6, 6)
+      real(dp), intent(out) :: mobility(36), coefficients(5)
+      type(mobility_result_t) :: found
+      real(dp) :: friction(6, 6)
+      mobility = nan
+      coefficients = nan
+      if (err%failed) return
+      friction = scaled_by_ratio(solved * to_shape_units, body_friction, sample_friction)
+      friction = 0.5_dp * (friction + transpose(friction))
+      call compute_mobility(friction, body%centroid(), axes, reference_length, found, err)
+      if (err%failed) return
+      mobility = reshape(found%mobility, [36])
+      coefficients = found%coefficients
+    end subroutine mobility_of
+  end subroutine correct_sample
 
   !> The sample's friction K corrected by the ratio of its body's and its own equivalent
   !> ellipsoids' frictions B and S (docs/theory.md T18, step 2): T K T^T with T = B^(1/2) S^(-1/2)
