@@ -33,7 +33,7 @@ module beadmob_command_line
   end type option_t
 
   !> Every option beadmob reads; store_option says where each one goes.
-  type(option_t), parameter :: options(21) = [ &
+  type(option_t), parameter :: options(22) = [ &
     option_t('operator', 'direct|fft|pfft|auto', word, 'the bead operator (default auto: the faster one for the job)'), &
     option_t('pfft_near_radius', 'R', real_number, 'off-lattice far field: pairs within R (d) exact (default 3)'), &
     option_t('pfft_stencil', 'S', integer_number, 'off-lattice far field: interpolation on S^3 grid points (default 4)'), &
@@ -64,6 +64,8 @@ module beadmob_command_line
              'samples) are saved (a test of checkpoint and resume)'), &
     option_t('fill_samples', 'K', integer_number, 'a continuum job''s fill_budget buys exactly K control ' // &
              'samples, whatever the time (a test of its choices)'), &
+    option_t('slow_samples', 'F', real_number, 'a continuum job''s samples after its pilot count F times ' // &
+             'their time, as on a machine slowed down F times (a test of the budget''s checks)'), &
     option_t('keep_checkpoint', '', switch, 'a continuum job keeps its checkpoint of samples when it ' // &
              'finishes: rerun, it extrapolates them again without solving (a newer build''s estimate)'), &
     option_t('hdf5_error_stack', '', switch, 'print HDF5''s own error stack on a failed HDF5 call (debugging)')]
@@ -354,6 +356,9 @@ contains
       case ('fill_samples')
         config%fill_samples = whole
         if (whole < 1) call raise(err, '-fill_samples must be at least 1, got ' // value)
+      case ('slow_samples')
+        config%slow_samples = number
+        if (.not. number >= 1.0_dp) call raise(err, '-slow_samples must be at least 1, got ' // value)
       case ('keep_checkpoint')
         config%keep_checkpoint = .true.
       case ('hdf5_error_stack')

@@ -61,6 +61,15 @@ module beadmob_continuum_job
   integer, parameter :: control_numbers = 37
   !> fill_budget's limit of a level's samples (the turns of turned lattices are numbered for 64).
   integer, parameter :: max_samples_per_level = 64
+  !> The offset index of the estimates and the pilot: Halton point 2, (1/4, 2/3, 2/5) of a
+  !> lattice cell, keeps no mirror plane of a body symmetric about one through a lattice node, as
+  !> no later point does; point 1, (1/2, 1/3, 1/5), keeps the plane normal to x, and a solve with a
+  !> mirror plane costs less (an arrowhead at 145k beads: 42.8 s against 69 s), so estimates made
+  !> there foresaw a 300 s job's finest levels at half their time. Always a full sample (offsets >= 2).
+  integer, parameter :: generic_offset = 2
+  !> keep_to_budget trusts a solved level's measured time over its estimate for the rest of the
+  !> ladder when that level took at least this fraction of the rest's cost.
+  real(dp), parameter :: trusted_fraction = 0.125_dp
   !> A control solve's Krylov tolerance over the job's (control_settings).
   real(dp), parameter :: control_tolerance_factor = 5.0_dp
 
@@ -100,7 +109,7 @@ module beadmob_continuum_job
 
   !> What the job knows of its levels before solving: level k has bead diameter
   !> bead_diameter * 2**(k/3), k from `finest` to `coarsest` (survey_body); per level the beads at
-  !> the first offset and the dry run's estimate of a sample (s), -1 until surveyed; the pilot's
+  !> the generic offset and the dry run's estimate of a sample (s), -1 until surveyed; the pilot's
   !> calibration of the estimates.
   type :: ladder_survey_t
     integer :: user_beads = 0, coarsest = 0, finest = 0
@@ -137,7 +146,8 @@ contains
     type(corrected_sample_t), allocatable :: corrected(:)   ! fill_budget's, of samples(1:size(corrected))
     logical :: budget_chooses, fills
     character(len=:), allocatable :: key, checkpoint, chosen_by
-    integer :: level, j, fill, solved_here, pilot_level, finest_level
+    integer :: level, j, fill, solved_here, pilot_level, finest_level, moved_coarser
+    logical :: overrun_told   ! keep_to_budget's warning that no move helps, once
 
     job_start = MPI_Wtime()
     call check_continuum_input(config, err)
@@ -187,7 +197,7 @@ contains
     ! The dry run's estimates, calibrated by one pilot sample of about pilot_beads beads (kept when
     ! it lands on the ladder); a pilot slower than its estimate can only make the ladder coarser.
     if (budget_chooses) then
-      pilot = solve_sample(0, 1, level_diameter(config, pilot_level))
+      pilot = solve_sample(0, generic_offset, level_diameter(config, pilot_level))
       if (err%failed) return
       estimate = survey%seconds(pilot_level)
       if (estimate > 0.0_dp .and. pilot%beads >= minimum_coarsest_beads) survey%calibration = max(1.0_dp, pilot%seconds / estimate)
@@ -215,13 +225,24 @@ contains
       volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
     end do
 
+    ! Coarsest level first. Before each level a budget's ladder is checked against what its levels
+    ! have taken so far, and moved coarser if the rest would overrun (keep_to_budget); a move adds
+    ! an unsolved coarsest level, so the pass starts over (solved levels are skipped).
     solved_here = 0
-    do level = 1, size(diameters)
+    moved_coarser = 0
+    overrun_told = .false.
+    level = 1
+    do while (level <= size(diameters))
+      if (budget_chooses) then
+        call keep_to_budget(level)
+        if (err%failed) return
+      end if
       do j = 1, config%continuum%offsets + config%continuum%control_offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
         call add_sample(level, j)
         if (err%failed) return
       end do
+      level = level + 1
     end do
 
     ! The reference model carries the geometry and the body frame of the coefficients: the finest
@@ -259,12 +280,96 @@ contains
     result%filled = fills
     result%calibration = survey%calibration
     result%chosen_by = chosen_by
+    result%moved_coarser = moved_coarser
     call write_result_file(ctx, config, model, frame, err, continuum=result)
     if (err%failed) return
     if (config%checkpoint .and. .not. config%keep_checkpoint .and. ctx%rank == 0) call remove_file(checkpoint)
     if (ctx%rank == 0) call print_continuum(config, result)
 
   contains
+
+    !> Collective. Before level `level` of a ladder the budget chose (docs/theory.md T18, "The
+    !> ladder"): the unsolved levels' estimates times the finest complete level's measured time
+    !> over its estimate, against what is left of the budget (rank 0's clock). When they overrun,
+    !> the ladder moves s levels coarser, the least s that fits (or the most the body allows): s
+    !> coarser levels are added, the s finest incomplete ones dropped (with a pilot sample kept on
+    !> one), every other sample kept on its bead diameter. The estimates' CG iteration counts do not know the body's shape (a flat
+    !> arrowhead's rotations took 32 iterations at 145k beads where 17 were foreseen), and the
+    !> pilot's small solve does not show it; the levels solved do. On a move, `level` goes back to 1.
+    subroutine keep_to_budget(level)
+      integer, intent(inout) :: level
+      real(dp) :: ratio, left, cost(0:size(diameters) - 1), full_level
+      integer :: complete, i, s, most, chosen_s, ierr
+      type(error_t) :: refused
+      full_level = config%continuum%offsets + config%continuum%control_offsets
+      complete = 0
+      do i = 1, size(diameters)
+        if (count(samples%level == i) >= full_level) complete = i
+      end do
+      if (complete == 0) return
+      ratio = sum(pack(samples%seconds, samples%level == complete)) / &
+              (count(samples%level == complete) / full_level * estimate_of(grid_index(complete)))
+      if (.not. ratio > 0.0_dp) return
+      left = config%continuum%time_budget - (MPI_Wtime() - job_start)
+      call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      ! cost(s): the unsolved levels of the ladder moved s levels coarser, at the measured ratio.
+      most = 0
+      cost(0) = ratio * sum([(merge(estimate_of(grid_index(i)), 0.0_dp, count(samples%level == i) < full_level), &
+                              i = 1, size(diameters))])
+      do s = 1, size(diameters) - 1
+        if (size(diameters) - s < complete .or. finest_level + s + size(diameters) - 1 > survey%coarsest) exit
+        call survey_level(ctx, config, mesh, survey, finest_level + s + size(diameters) - 1, refused, err)
+        if (err%failed) return
+        if (refused%failed .or. survey%beads(finest_level + s + size(diameters) - 1) < minimum_coarsest_beads) exit
+        cost(s) = cost(s - 1) - ratio * estimate_of(finest_level + s - 1) + &
+                  ratio * estimate_of(finest_level + s + size(diameters) - 1)
+        most = s
+      end do
+      ! A level whose time is a small part of the rest says little of it: fixed costs weigh more in
+      ! a small solve and CG iterations grow with the beads, so the ratio drifts with the size. Only
+      ! a level that took at least trusted_fraction of the rest's cost (in practice one of the three
+      ! finest: each level costs about twice the one above it) moves the ladder.
+      if (cost(0) <= left) return
+      if (sum(pack(samples%seconds, samples%level == complete)) < trusted_fraction * cost(0)) return
+      if (most == 0) then
+        if (.not. overrun_told .and. ctx%rank == 0) write (*, '(a)') 'beadmob: warning: &continuum: level ' // &
+          str(complete) // ' took ' // trim(str_approx(ratio)) // ' times its estimate; the rest of the ladder would ' // &
+          'take ' // trim(seconds_text(cost(0))) // ' of the ' // trim(seconds_text(max(left, 0.0_dp))) // ' left of ' // &
+          'the budget, and no coarser ladder has its coarsest level at ' // str(minimum_coarsest_beads) // &
+          ' beads or more and keeps the levels solved: running on'
+        overrun_told = .true.
+        return
+      end if
+      chosen_s = most
+      do s = most, 1, -1
+        if (cost(s) <= left) chosen_s = s
+      end do
+      finest_level = finest_level + chosen_s
+      diameters = [(level_diameter(config, i), i = finest_level + size(diameters) - 1, finest_level, -1)]
+      samples%level = samples%level + merge(chosen_s, 0, samples%level > 0)
+      samples = pack(samples, samples%level <= size(diameters))   ! a dropped level's pilot sample
+      moved_coarser = moved_coarser + chosen_s
+      if (ctx%rank == 0) write (*, '(a)') 'beadmob: &continuum: level ' // str(complete) // ' took ' // &
+        trim(str_approx(ratio)) // ' times its estimate; the rest of the ladder would take ' // &
+        trim(seconds_text(cost(0))) // ' of the ' // trim(seconds_text(max(left, 0.0_dp))) // ' left of the budget: ' // &
+        'the ladder moves ' // str(chosen_s) // ' level(s) coarser (bead diameters ' // &
+        trim(ladder_text(config, finest_level, size(diameters))) // ', estimated ' // trim(seconds_text(cost(chosen_s))) // &
+        ' more)' // either(cost(chosen_s) > left, ', as far as it can move (the solved levels stay, the ' // &
+        'coarsest holds ' // str(minimum_coarsest_beads) // ' beads or more), still beyond the budget', '')
+      level = 1
+    end subroutine keep_to_budget
+
+    !> The grid index k (bead diameter level_diameter(config, k)) of the ladder's level i.
+    pure integer function grid_index(i)
+      integer, intent(in) :: i
+      grid_index = finest_level + size(diameters) - i
+    end function grid_index
+
+    !> The dry run's estimate of a whole level at grid index k (surveyed).
+    pure real(dp) function estimate_of(k)
+      integer, intent(in) :: k
+      estimate_of = level_seconds(config, survey%seconds(k), survey%control_seconds(k))
+    end function estimate_of
 
     !> Collective. Solves sample j of `level` into samples and the checkpoint.
     subroutine add_sample(level, j)
@@ -334,6 +439,7 @@ contains
       ! Rank 0's clock for all: the pilot's calibration and fill_budget decide by it.
       sample%seconds = MPI_Wtime() - start
       call MPI_Bcast(sample%seconds, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      if (level > 0) sample%seconds = sample%seconds * config%slow_samples   ! a test (-slow_samples)
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
         'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
         sample%iterations, ' iterations, ', sample%seconds, ' s' // either(sample%full, '', ' (control sample)')
@@ -585,7 +691,7 @@ contains
     if (product(high - low) < product(maxval(vertices, dim=2) - minval(vertices, dim=2))) axes = q
   end function tighter_box_axes
 
-  !> Collective. Level k surveyed once: its bead count at the first offset and the dry run's
+  !> Collective. Level k surveyed once: its bead count at the generic offset and the dry run's
   !> estimate of one sample (uncalibrated; 0 s below minimum_coarsest_beads, where no plan is
   !> made); a plan refused for memory leaves `refused` set and seconds = -2.
   subroutine survey_level(ctx, config, mesh, survey, k, refused, err)
@@ -598,8 +704,8 @@ contains
     type(run_config_t) :: c
     type(bead_model_t) :: model
     if (survey%seconds(k) >= 0.0_dp) return
-    ! The first sample's offset: like every sample's, it breaks the lattice symmetries.
-    call build_at(ctx, config, mesh, survey%turns, level_diameter(config, k), 1, model, err, c)
+    ! At the generic offset, as the pilot and most samples: no mirror plane of the lattice left.
+    call build_at(ctx, config, mesh, survey%turns, level_diameter(config, k), generic_offset, model, err, c)
     if (err%failed) return
     survey%beads(k) = size(model%centres, 2)
     survey%seconds(k) = 0.0_dp
@@ -821,7 +927,7 @@ contains
     diameters = [(finest * 2.0_dp**((levels - k) / 3.0_dp), k = 1, levels)]
     estimated_seconds = 0.0_dp
     do k = 1, levels
-      call build_at(ctx, config, mesh, survey%turns, diameters(k), 1, model, err, c)
+      call build_at(ctx, config, mesh, survey%turns, diameters(k), generic_offset, model, err, c)
       if (err%failed) return
       if (k == 1 .and. size(model%centres, 2) < minimum_coarsest_beads) then
         call raise(err, '&continuum: finest_bead_diameter = ' // diameter_text(finest) // ' puts ' // str(size(model%centres, 2)) // &
@@ -858,7 +964,7 @@ contains
     call survey_level(ctx, config, mesh, survey, k, refused, err)
   end subroutine pilot_level_of
 
-  !> Rank 0 prints the ladder: its bead diameters and bead counts (first offset), the estimate,
+  !> Rank 0 prints the ladder: its bead diameters and bead counts (generic offset), the estimate,
   !> what fill_budget does with the rest (`fills`), and before the pilot, how the pilot may change it.
   subroutine print_ladder(ctx, config, survey, diameters, estimated_seconds, calibration, fills, pilot_level)
     type(run_context_t), intent(in) :: ctx

@@ -28,6 +28,8 @@ module beadmob_continuum_fit
     !> factor on the dry run's estimates (1 without a pilot).
     character(len=:), allocatable :: chosen_by
     real(dp) :: calibration = 1.0_dp
+    !> Levels the budget's ladder moved coarser once its solved levels showed the rest would overrun.
+    integer :: moved_coarser = 0
     real(dp), allocatable :: bead_diameters(:)                  ! per level, coarsest first
     !> The body from the moment fills: volume and its standard error, centroid, the equivalent
     !> ellipsoid's semi-axes and axes (columns).

@@ -107,6 +107,9 @@ module beadmob_input_config
     !> Test option -fill_samples K: a continuum job's fill_budget buys exactly K control samples in
     !> all, whatever the time (0: as many as the time budget pays for)
     integer :: fill_samples = 0
+    !> Test option -slow_samples F: a continuum job's samples after its pilot count F times their
+    !> time (a machine slowed down after the pilot), which the budget's checks then see
+    real(dp) :: slow_samples = 1.0_dp
   end type run_config_t
 
 contains

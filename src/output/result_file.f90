@@ -396,6 +396,7 @@ contains
     call write_attribute(group, 'estimated_seconds', c%estimated_seconds, err)
     call write_attribute(group, 'ladder_chosen_by', c%chosen_by, err)
     call write_attribute(group, 'estimate_calibration', c%calibration, err)
+    call write_attribute(group, 'ladder_moved_coarser', c%moved_coarser, err)
     call write_attribute(group, 'reference_length', c%reference_length, err)
     call write_attribute(group, 'volume', c%volume, err)
     call write_attribute(group, 'volume_standard_error', c%volume_error, err)

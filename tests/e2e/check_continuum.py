@@ -34,7 +34,13 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    over all five; stopped
    after three samples (the third a control sample) and resumed, the same values within 1e-3 of
    the bars. A flow job with control samples: the sphere's stresslet within its bar, its level means
-   controlled alike. Refused: control_offsets with multipole_order = 1, below 0."""
+   controlled alike. Refused: control_offsets with multipole_order = 1, below 0.
+8. A budget's ladder checked by its levels: with -slow_samples 30 (the samples after the pilot
+   count 30 times their time, a machine slowed down after the pilot) a 3-level ladder moves
+   coarser once a level shows the rest would overrun; the result records the move, its ladder is
+   the one before it shifted by whole levels (bead diameters times 2**(s/3)), every level holds
+   its 2 full and 6 control samples on its own bead diameter, and the sphere is within its bar of
+   Stokes."""
 import math
 import os
 import re
@@ -340,6 +346,41 @@ def main(beadmob, mpiexec, ranks, workdir):
               and all(len({tuple(o) for o in offsets[level == k]}) == counts[k - 1] for k in range(1, levels + 1)),
               f"fill_budget: stopped in the fill with {len(kept)} samples and resumed, filled on to {len(level)} "
               f"(per level {counts}), every sample of a level on its own offset")
+
+    # 8. The levels check the ladder (T18): the samples after the pilot count 30 times their time,
+    # so the first level that is a fair share of the rest shows an overrun and the ladder moves
+    # coarser. The ladder before the move is the last one printed before the move's message.
+    nml = write_input(workdir, "slow.nml", "slow.h5",
+                      SPHERE + "&continuum levels = 3, time_budget = 80, fill_budget = .false. /\n")
+    done = run(beadmob, mpiexec, ranks, workdir, nml, "-slow_samples", "30")
+    moved = re.search(r"the ladder moves (\d+) level\(s\) coarser \(bead diameters (\S+) \.\.\. (\S+),", done.stdout)
+    before = re.findall(r"bead diameters \(coarsest first\):\n(.*)\n", done.stdout[:moved.start()] if moved else "")
+    if done.returncode != 0 or moved is None or not before:
+        check(False, f"slow samples: the job ran and moved its ladder coarser:\n{done.stdout}\n{done.stderr}")
+    else:
+        sc = continuum(Path(workdir) / "slow.h5")
+        steps = int(moved.group(1))
+        diameters = np.asarray(sc["bead_diameters"]).reshape(-1)
+        planned = np.array([float(x) for x in before[-1].split()])
+        level = np.asarray(sc["sample_level"]).reshape(-1)
+        full = np.asarray(sc["sample_full"]).reshape(-1)
+        counts = np.bincount(level, minlength=4)[1:]
+        check(steps >= 1 and sc["ladder_moved_coarser"] == steps and len(diameters) == 3
+              and np.allclose(diameters, planned * 2.0 ** (steps / 3.0), rtol=1e-3)
+              and np.isclose(diameters[0], float(moved.group(2)), rtol=1e-3)
+              and np.isclose(diameters[-1], float(moved.group(3)), rtol=1e-3),
+              f"slow samples: the ladder {planned} moved {steps} level(s) coarser to {diameters}, recorded")
+        # Each sample's beads fill the sphere at its level's bead diameter: N d^3 is its volume
+        # 4 pi / 3 within 20 % (the neighbouring levels' would be off by a factor 2).
+        filled = np.asarray(sc["sample_beads"]).reshape(-1) * diameters[level - 1] ** 3 / (4 * math.pi / 3)
+        check(np.all(counts == 8) and all(np.sum(full[level == k]) == 2 for k in range(1, 4))
+              and np.all(np.abs(filled - 1) < 0.2),
+              f"slow samples: every level of the moved ladder holds its 2 + 6 samples at its bead diameter "
+              f"(per level {counts}; N d^3 / V from {filled.min():.3f} to {filled.max():.3f})")
+        deviation = np.abs(np.diag(sc["mobility"]) - exact)
+        check(np.all(deviation <= np.diag(sc["mobility_error"])),
+              f"slow samples: the sphere within its bar of Stokes ({deviation / exact} against "
+              f"{np.diag(sc['mobility_error']) / exact})")
 
     if failures:
         sys.exit(f"{len(failures)} check(s) failed")
