@@ -18,7 +18,8 @@ continuum job (&continuum, docs/theory.md T18) against exact results, on 2 ranks
   bead-model table (Table tab_mob_num) and beadmob's ordinary run of shapes/<name>.nml.
 
 Each table's wall times are this machine's (2 ranks); `estimated` is the job's own estimate of
-its ladder (the dry run's, calibrated by its pilot solve)."""
+its ladder (the dry run's, calibrated by its pilot solve); `moved` (paper particles): the levels
+the ladder moved coarser once its solved levels showed the rest would overrun the budget."""
 import argparse
 import re
 import sys
@@ -84,6 +85,7 @@ def paper_rows(exe, budget, workdir):
             values, errors = c["coefficients"][()], c["coefficient_error"][()]
             diameters, estimated = c["bead_diameters"][()], float(c.attrs["estimated_seconds"])
             beads = int(max(c.attrs["sample_beads"]))
+            moved = int(c.attrs.get("ladder_moved_coarser", 0))
         ordinary, _ = run(exe, (ROOT / "shapes" / f"{row.shape}.nml").read_text().replace(
             f"output = '{row.shape}.h5'", "output = 'job.h5'"), workdir)
         with h5py.File(ordinary) as f:
@@ -91,11 +93,11 @@ def paper_rows(exe, budget, workdir):
         cells = " | ".join(f"{v:.3f} +- {e:.3f}" for v, e in zip(values, errors))
         rows.append(f"| {row.label} | {row.length_over_d:g} | {diameters[0]:.3f} - {diameters[-1]:.3f} | {beads} | {cells} | "
                     + " ".join(f"{v:.3f}" for v in row.coefficients()) + " | " + " ".join(f"{v:.3f}" for v in ours)
-                    + f" | {wall:.0f} | {estimated:.0f} |")
+                    + f" | {wall:.0f} | {estimated:.0f} | {moved} |")
         print(rows[-1], flush=True)
     header = ("| particle | L/d | bead diameters (paper d) | finest beads | mu11 | mu22 | mu33 | mu42 | mu51 | "
-              "paper's table (bead model) | ordinary beadmob run | wall (s) | estimated (s) |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "paper's table (bead model) | ordinary beadmob run | wall (s) | estimated (s) | moved |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     return header + "\n" + "\n".join(rows)
 
 
