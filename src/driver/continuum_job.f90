@@ -313,9 +313,15 @@ contains
       left = config%continuum%time_budget - (MPI_Wtime() - job_start)
       call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       ! cost(s): the unsolved levels of the ladder moved s levels coarser, at the measured ratio.
-      most = 0
       cost(0) = ratio * sum([(merge(estimate_of(grid_index(i)), 0.0_dp, count(samples%level == i) < full_level), &
                               i = 1, size(diameters))])
+      if (cost(0) <= left) return
+      ! A level whose time is a small part of the rest says little of it: fixed costs weigh more in
+      ! a small solve and CG iterations grow with the beads, so the ratio drifts with the size. Only
+      ! a level that took at least trusted_fraction of the rest's cost (in practice one of the three
+      ! finest: each level costs about twice the one above it) moves the ladder.
+      if (sum(pack(samples%seconds, samples%level == complete)) < trusted_fraction * cost(0)) return
+      most = 0
       do s = 1, size(diameters) - 1
         if (size(diameters) - s < complete .or. finest_level + s + size(diameters) - 1 > survey%coarsest) exit
         call survey_level(ctx, config, mesh, survey, finest_level + s + size(diameters) - 1, refused, err)
@@ -325,12 +331,6 @@ contains
                   ratio * estimate_of(finest_level + s + size(diameters) - 1)
         most = s
       end do
-      ! A level whose time is a small part of the rest says little of it: fixed costs weigh more in
-      ! a small solve and CG iterations grow with the beads, so the ratio drifts with the size. Only
-      ! a level that took at least trusted_fraction of the rest's cost (in practice one of the three
-      ! finest: each level costs about twice the one above it) moves the ladder.
-      if (cost(0) <= left) return
-      if (sum(pack(samples%seconds, samples%level == complete)) < trusted_fraction * cost(0)) return
       if (most == 0) then
         if (.not. overrun_told .and. ctx%rank == 0) write (*, '(a)') 'beadmob: warning: &continuum: level ' // &
           str(complete) // ' took ' // trim(str_approx(ratio)) // ' times its estimate; the rest of the ladder would ' // &
