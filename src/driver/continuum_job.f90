@@ -30,10 +30,11 @@ module beadmob_continuum_job
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
-                                   controlled_level_mean, controlled_variance_parts
+                                   controlled_level_mean
   use beadmob_continuum_fill, only: next_fill_level
   use beadmob_job_plan, only: job_plan_t, solve_rtol
   use beadmob_friction_job, only: friction_of_plan, friction_result_t, companion_orders
+  use beadmob_rigid_body_solve, only: solve_statistics_t
   use beadmob_linear_flow, only: n_strain_modes, strain_rotation
   use beadmob_flow_response, only: free_body_response
   use beadmob_result_file, only: write_result_file
@@ -298,7 +299,7 @@ contains
     !> pilot's small solve does not show it; the levels solved do. On a move, `level` goes back to 1.
     subroutine keep_to_budget(level)
       integer, intent(inout) :: level
-      real(dp) :: ratio, left, cost(0:size(diameters) - 1), full_level
+      real(dp) :: ratio, left, cost(0:size(diameters) - 1), full_level, solved_seconds
       integer :: complete, i, s, most, chosen_s, ierr
       type(error_t) :: refused
       full_level = config%continuum%offsets + config%continuum%control_offsets
@@ -307,8 +308,8 @@ contains
         if (count(samples%level == i) >= full_level) complete = i
       end do
       if (complete == 0) return
-      ratio = sum(pack(samples%seconds, samples%level == complete)) / &
-              (count(samples%level == complete) / full_level * estimate_of(grid_index(complete)))
+      solved_seconds = sum(pack(samples%seconds, samples%level == complete))
+      ratio = solved_seconds / (count(samples%level == complete) / full_level * estimate_of(grid_index(complete)))
       if (.not. ratio > 0.0_dp) return
       left = config%continuum%time_budget - (MPI_Wtime() - job_start)
       call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
@@ -320,7 +321,7 @@ contains
       ! a small solve and CG iterations grow with the beads, so the ratio drifts with the size. Only
       ! a level that took at least trusted_fraction of the rest's cost (in practice one of the three
       ! finest: each level costs about twice the one above it) moves the ladder.
-      if (sum(pack(samples%seconds, samples%level == complete)) < trusted_fraction * cost(0)) return
+      if (solved_seconds < trusted_fraction * cost(0)) return
       most = 0
       do s = 1, size(diameters) - 1
         if (size(diameters) - s < complete .or. finest_level + s + size(diameters) - 1 > survey%coarsest) exit
@@ -390,8 +391,10 @@ contains
 
     !> Collective. Sample j of level `level` (bead diameter d): the friction job with the run's
     !> settings (no error bar of its own: the ladder's scatter and extrapolation are this job's).
-    !> With control samples, j <= offsets also solves the control problem on the same beads
-    !> (control_settings) and j > offsets is a control sample, the control problem alone.
+    !> With control samples, j <= offsets also solves the control problem on the same beads, first
+    !> and as the order-L job's companion (friction_job.F90: the order-L solves start from its
+    !> solutions; bench/continuum/control_first.md), and j > offsets is a control sample, the
+    !> control problem alone (control_settings).
     function solve_sample(level, j, d) result(sample)
       integer, intent(in) :: level, j
       real(dp), intent(in) :: d
@@ -424,13 +427,22 @@ contains
       ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
       ! friction_job.F90 turns its solve axes back).
       turn = input_frame_turn(survey%turns, d, j)
-      if (sample%full) then
+      if (sample%full .and. config%continuum%control_offsets > 0) then
+        ! One job: the control problem first, the order-L solves started from its solutions.
+        call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err, control_rtol(config))
+        if (err%failed) return
+        sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
+        sample%control = matmul(turn(1:6, 1:6), matmul(job_result%companion_friction, transpose(turn(1:6, 1:6))))
+        if (job_result%flow) then
+          sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
+          sample%control_grand = matmul(turn, matmul(job_result%companion_grand_resistance, transpose(turn)))
+        end if
+      else if (sample%full) then
         call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err)
         if (err%failed) return
         sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
         if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
-      end if
-      if (config%continuum%control_offsets > 0) then
+      else
         call solve_friction(ctx, control_settings(sample_config), sample_model%centres, job_result, sample, err)
         if (err%failed) return
         sample%control = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
@@ -579,18 +591,20 @@ contains
 
   !> Collective. The friction job of c on a sample's beads (centres, d units) into job_result; its
   !> solves' record (iterations, convergence, largest residual) added to the sample's.
-  subroutine solve_friction(ctx, c, centres, job_result, sample, err)
+  subroutine solve_friction(ctx, c, centres, job_result, sample, err, control_rtol)
     type(run_context_t), intent(in) :: ctx
     type(run_config_t), intent(in) :: c
     real(dp), intent(in) :: centres(:, :)
     type(friction_result_t), intent(out) :: job_result
     type(continuum_sample_t), intent(inout) :: sample
     type(error_t), intent(inout) :: err
+    real(dp), intent(in), optional :: control_rtol   ! the control problem first, at this tolerance
     type(run_config_t) :: solved
     type(job_plan_t) :: plan
     solved = c
     associate (job => solved%hydrodynamics)
       job%error_estimate = .false.
+      if (present(control_rtol)) job%control_rtol = control_rtol
       job%progress = .false.
       job%checkpoint_file = ''
       job%stop_after_solves = 0   ! counts samples here (run_continuum_job)
@@ -600,9 +614,15 @@ contains
       call friction_of_plan(ctx, job, plan, job_result, err)
       if (err%failed) return
     end associate
-    sample%iterations = sample%iterations + sum(max(job_result%solves%iterations, 0))
-    if (.not. all(job_result%solves%converged_reason > 0 .or. job_result%solves%source /= 0)) sample%converged = 0
-    sample%residual = max(sample%residual, maxval(job_result%solves%true_relative_residual))
+    call count_solves(job_result%solves)
+    if (present(control_rtol)) call count_solves(job_result%companion_solves)
+  contains
+    subroutine count_solves(solves)
+      type(solve_statistics_t), intent(in) :: solves
+      sample%iterations = sample%iterations + sum(max(solves%iterations, 0))
+      if (.not. all(solves%converged_reason > 0 .or. solves%source /= 0)) sample%converged = 0
+      sample%residual = max(sample%residual, maxval(solves%true_relative_residual))
+    end subroutine count_solves
   end subroutine solve_friction
 
   !> Collective. The body's size before any level is filled: a mesh's exact volume and second
@@ -758,6 +778,10 @@ contains
                           control%hydrodynamics%multipole_order, control%hydrodynamics%potential_order)
     control%hydrodynamics%krylov_rtol = control_rtol(config)
     control%hydrodynamics%krylov_rtol_on_command_line = .false.
+    ! The single-bead preconditioner, as the full samples' control problem has it (their
+    ! companion, friction_job.F90): the same iterates on every sample.
+    control%hydrodynamics%near_field_radius = 0.0_dp
+    control%hydrodynamics%near_field_cluster = 0
   end function control_settings
 
   !> The Krylov tolerance of a control solve: control_tolerance_factor times the job's.
@@ -819,9 +843,7 @@ contains
           do k = 1, size(diameters)
             on_level = samples%level == k
             call controlled_level_mean(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
-                                       means(k), errors(k))
-            call controlled_variance_parts(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
-                                           paired(q, k), per_control(q, k))
+                                       means(k), errors(k), paired(q, k), per_control(q, k))
           end do
           ! Relative to the entry's value, so that every entry counts alike.
           fit = extrapolate_to_zero(diameters, means, errors, 0.0_dp)

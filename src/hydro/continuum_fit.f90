@@ -123,13 +123,17 @@ contains
   !> y it has nearly the standard error of x's mean over m; its variance
   !>     var(y - x) / n + (var(x) + 2 cov(y - x, x)) / m,
   !> the covariance from the n pairs (each of the n is one of the m), var(x) from the m.
-  pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error)
+  !> paired, per_control: the variance's two parts (controlled_variance_parts), if asked for.
+  pure subroutine controlled_level_mean(y, x_paired, x_all, mean, standard_error, paired, per_control)
     real(dp), intent(in) :: y(:), x_paired(:), x_all(:)
     real(dp), intent(out) :: mean, standard_error
-    real(dp) :: paired, per_control
+    real(dp), intent(out), optional :: paired, per_control
+    real(dp) :: paired_part, control_part
     mean = sum(y - x_paired) / size(y) + sum(x_all) / size(x_all)
-    call controlled_variance_parts(y, x_paired, x_all, paired, per_control)
-    standard_error = sqrt(paired + per_control / size(x_all))
+    call controlled_variance_parts(y, x_paired, x_all, paired_part, control_part)
+    standard_error = sqrt(paired_part + control_part / size(x_all))
+    if (present(paired)) paired = paired_part
+    if (present(per_control)) per_control = control_part
   end subroutine controlled_level_mean
 
   !> The two parts of controlled_level_mean's variance, paired + per_control / m: var(y - x) / n,

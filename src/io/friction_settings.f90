@@ -111,6 +111,11 @@ module beadmob_friction_settings
     !> The input part of the checkpoint's key: the effective input without the switches that
     !> change no number (input_config.f90, effective_input_text)
     character(len=:), allocatable :: checkpoint_input
+    !> The continuum job's control problem on the same beads (docs/theory.md T18, "Control
+    !> samples"), > 0: the order L - 1 problem is solved first, from zero, at this Krylov tolerance
+    !> (its friction the companion's), and the order-L solves start from its solutions (fewer
+    !> iterations). 0: none (an error_estimate companion is solved after order L, from its part).
+    real(dp) :: control_rtol = 0.0_dp
   end type friction_settings_t
 
 contains

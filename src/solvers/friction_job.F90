@@ -227,7 +227,10 @@ contains
     type(multipole_basis_t) :: low
     integer, allocatable :: unknowns(:)
     real(dp), allocatable :: low_start(:, :), low_strain_start(:, :)
-    logical :: report, with_companion, own_near_field, solver_made
+    ! control first (settings%control_rtol): the companion's solutions, the order-L solves' start
+    real(dp), allocatable :: low_solution(:, :), low_strain_solution(:, :)
+    real(dp) :: companion_seconds
+    logical :: report, with_companion, control_first, own_near_field, solver_made
 
     ! One -log_view stage per phase (the last phase name, 'total', is the sum).
     do phase = 1, size(stages)
@@ -240,7 +243,9 @@ contains
     end do
     start = MPI_Wtime()
     report = settings%progress .and. ctx%rank == 0
-    with_companion = settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions)
+    control_first = settings%control_rtol > 0.0_dp .and. settings%multipole_order >= 2
+    with_companion = (settings%error_estimate .and. settings%multipole_order >= 2 .and. all(settings%motions)) .or. &
+                     control_first
     PetscCallA(PetscLogStagePush(stages(1), ierr))
     basis = make_multipole_basis(settings%multipole_order, settings%potential_order)
     job_result%unknowns_per_bead = basis%size
@@ -297,6 +302,14 @@ contains
       if (err%failed) exit job   ! the same self block on every rank
       call mark(2)
 
+      companion_seconds = 0.0_dp
+      if (control_first) then
+        companion_seconds = MPI_Wtime()
+        call set_up_companion()
+        call companion_friction(settings%control_rtol, err)
+        if (err%failed) exit job
+        companion_seconds = MPI_Wtime() - companion_seconds
+      end if
       call create_motion_solver(solver, ctx%comm, matrix, near_field, basis%size, size(centres, 2, kind=i8), first, count, &
                                 settings%krylov_rtol, 'solve', report, bead_blocks, op, settings%solve_apart, &
                                 settings%deflation)
@@ -304,6 +317,7 @@ contains
       if (len_trim(settings%checkpoint_file) > 0) call use_checkpoint(solver, trim(settings%checkpoint_file), &
         checkpoint_key(settings, centres, reference_point, basis%size, job_result%operator_name))
       solver%stop_after_solves = settings%stop_after_solves
+      if (control_first) call start_from_companion()
       if (settings%flow) call pose_strains(solver, projection, own_strain, centres, reference_point)
       call solve_level(solver, op, basis, projection, job_result%multipole_friction, job_result%solves, err)
       if (err%failed) exit job   ! the test stop: the same solve count on every rank
@@ -328,12 +342,9 @@ contains
         allocate (job_result%bead_forces(36, count))
         call bead_forces_of_solutions(solver, projection, job_result%bead_forces)
       end if
-      if (with_companion) then
+      if (with_companion .and. .not. control_first) then
         ! The companion's start: the order L - 1 part of the order-L solutions.
-        call companion_orders(settings%multipole_order, settings%potential_order, job_result%companion_order, &
-                              job_result%companion_potential_order)
-        low = make_multipole_basis(job_result%companion_order, job_result%companion_potential_order)
-        unknowns = companion_unknowns(basis)
+        call set_up_companion()
         allocate (low_start(size(unknowns) * count, 6))
         call keep_solution_part(solver, unknowns, low_start)
         if (settings%flow) then
@@ -346,10 +357,13 @@ contains
       call op%free_batches()   ! the companion has buffers of its own
       call mark(3)
 
-      if (with_companion) call companion_friction(err)
+      if (with_companion .and. .not. control_first) call companion_friction(settings%krylov_rtol, err)
       if (err%failed) exit job
       call release_operator()
       call mark(4)
+      ! A companion solved first is timed as its phase, not as the solve's.
+      job_result%seconds(3) = job_result%seconds(3) - companion_seconds
+      job_result%seconds(4) = job_result%seconds(4) + companion_seconds
 
       job_result%friction = job_result%multipole_friction
       job_result%companion_friction = job_result%companion_multipole_friction
@@ -395,10 +409,37 @@ contains
                          ' beads (' // progress_seconds(job_result%operator_sample%seconds) // ' s)')
     end subroutine sample_far_field_error
 
+    !> The companion's orders, basis and unknowns in the order-L basis.
+    subroutine set_up_companion()
+      call companion_orders(settings%multipole_order, settings%potential_order, job_result%companion_order, &
+                            job_result%companion_potential_order)
+      low = make_multipole_basis(job_result%companion_order, job_result%companion_potential_order)
+      unknowns = companion_unknowns(basis)
+    end subroutine set_up_companion
+
+    !> Control first: the order-L solves start from the companion's solutions on its unknowns
+    !> (zero on the others), each bead's block of basis%size numbers.
+    subroutine start_from_companion()
+      integer(i8) :: bead
+      allocate (solver%initial_guess(basis%size * count, 6), source=0.0_dp)
+      do bead = 1, count
+        solver%initial_guess(basis%size * (bead - 1) + unknowns, :) = &
+          low_solution(low%size * (bead - 1) + 1:low%size * bead, :)
+      end do
+      if (.not. settings%flow) return
+      allocate (solver%strain_initial_guess(basis%size * count, n_strain_modes), source=0.0_dp)
+      do bead = 1, count
+        solver%strain_initial_guess(basis%size * (bead - 1) + unknowns, :) = &
+          low_strain_solution(low%size * (bead - 1) + 1:low%size * bead, :)
+      end do
+    end subroutine start_from_companion
+
     !> The companion of order L - 1 on the same beads: the sub-basis of the order-L one, its operator
     !> read from the order-L operator (create_*_companion, no new quadrature or kernel), the
-    !> single-bead preconditioner, the same motions, symmetries and tolerance; not checkpointed.
-    subroutine companion_friction(err)
+    !> single-bead preconditioner, the same motions and symmetries, Krylov tolerance rtol; not
+    !> checkpointed. Solved first (control_first), from zero, its solutions kept as the order-L start.
+    subroutine companion_friction(rtol, err)
+      real(dp), intent(in) :: rtol
       type(error_t), intent(inout) :: err
       class(multipole_operator_t), allocatable, target :: low_op
       type(bead_block_preconditioner_t), allocatable, target :: low_blocks
@@ -406,10 +447,17 @@ contains
       Mat :: low_preconditioning
       logical :: low_own_near_field
       integer(i8) :: no_pairs
+      integer :: k
+      real(dp), allocatable :: low_response(:, :)
 
       job_result%companion_unknowns_per_bead = low%size
-      call progress_line(report, 'phase companion: order L = ' // str(job_result%companion_order) // ', ' // &
-                         str(low%size) // ' unknowns per bead, for the error estimate')
+      if (control_first) then
+        call progress_line(report, 'phase companion: order L = ' // str(job_result%companion_order) // ', ' // &
+                           str(low%size) // ' unknowns per bead, the control problem, the start of order L')
+      else
+        call progress_line(report, 'phase companion: order L = ' // str(job_result%companion_order) // ', ' // &
+                           str(low%size) // ' unknowns per bead, for the error estimate')
+      end if
       call op%create_companion(ctx%comm, unknowns, low_op, err)
       call agree_on_error(ctx, err)
       if (.not. err%failed) then
@@ -420,7 +468,7 @@ contains
       end if
       if (.not. err%failed) then
         call create_motion_solver(low_solver, ctx%comm, low_op%matrix, low_preconditioning, low%size, &
-                                  size(centres, 2, kind=i8), first, count, settings%krylov_rtol, 'companion solve', &
+                                  size(centres, 2, kind=i8), first, count, rtol, 'companion solve', &
                                   report, low_blocks, low_op, settings%solve_apart, &
                                   settings%deflation)
         call move_alloc(low_start, low_solver%initial_guess)
@@ -433,6 +481,20 @@ contains
         if (.not. err%failed) call mask_uncomputed(job_result%companion_solves, job_result%companion_multipole_friction)
         if (.not. err%failed .and. settings%flow) call strain_grand_resistance(low_solver, &
           job_result%companion_grand_resistance, job_result%companion_strain_solves)
+        if (.not. err%failed .and. settings%flow .and. control_first .and. low%order == 1) then
+          ! As an order-1 job's (the control samples'): the beads' own stresslets by Faxen's law.
+          allocate (low_response(low%size * count, n_strain_modes))
+          call stresslet_pattern_response(centres, first, count, projection(unknowns, :), low_response)
+          call add_bead_stresslets(low_solver, low_response, job_result%companion_grand_resistance)
+        end if
+        if (.not. err%failed .and. control_first) then
+          allocate (low_solution(low%size * count, 6))
+          call keep_solution_part(low_solver, [(k, k=1, low%size)], low_solution)
+          if (settings%flow) then
+            allocate (low_strain_solution(low%size * count, n_strain_modes))
+            call keep_strain_solution_part(low_solver, [(k, k=1, low%size)], low_strain_solution)
+          end if
+        end if
         call destroy_motion_solver(low_solver)
       end if
       call low_op%destroy()

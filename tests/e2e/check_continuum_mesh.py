@@ -28,7 +28,9 @@ every entry of its mobility is generic.
    volume of the turned moment fills the polyhedron's within 4 of their standard errors; one sample,
    rebuilt as an ordinary run of the mesh turned by Q^T about the pivot on that sample's offset and
    bead diameter, has the same beads and, turned back (diag(Q, Q) K diag(Q, Q)^T), the sample's
-   friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py); both
+   friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py), and its
+   control friction and grand resistance (solved first in the job, the order-L start) an order-1
+   ordinary run's at the controls' 5e-3 within theirs; both
    are flow jobs, and the sample's grand resistance in the kept checkpoint is the ordinary run's
    turned back by diag(Q, Q, D(Q)) (D: the strain modes' rotation, docs/theory.md T19, computed
    here from the modes' definition) within the same bounds; the turned job's continuum mobility
@@ -151,7 +153,8 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
         full = np.asarray(c.attrs["sample_full"]).reshape(-1) if "sample_full" in c.attrs else np.ones(len(axes))
         last = int(np.flatnonzero(full == 1)[-1])
         sample = dict(level=int(c.attrs["sample_level"][last]), beads=int(c.attrs["sample_beads"][last]),
-                      offset=c["sample_offset"][last], friction=c["sample_friction"][last].reshape(6, 6, order="F"))
+                      offset=c["sample_offset"][last], friction=c["sample_friction"][last].reshape(6, 6, order="F"),
+                      control=c["sample_control_friction"][last].reshape(6, 6, order="F"))
         d = c["bead_diameters"][sample["level"] - 1]
         pivot = c["lattice_pivot"][()]
         turned = (c["mobility"][()], c["mobility_error"][()])
@@ -193,6 +196,25 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     check(bound is not None and np.all(difference <= allowed),
           f"the sample's friction is the turned ordinary run's, turned back (largest |difference| / allowed "
           f"{np.max(difference / allowed):.2g})")
+    # Its control problem (order L - 1 at five times the job's Krylov tolerance, 5e-3), which the job
+    # solves first on the same beads and starts the order-L solves from: an ordinary order-1 flow run
+    # at that tolerance (its grand resistance with the beads' own stresslets, Faxen's law, as every
+    # order-1 job's), turned back, within the two solves' bounds.
+    nml.write_text(nml.read_text().replace("&hydrodynamics flow = .true. /",
+                                           "&hydrodynamics multipole_order = 1, krylov_rtol = 5e-3, flow = .true. /"))
+    (workdir / "sample.h5").unlink(missing_ok=True)
+    run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir, capture_output=True,
+                         text=True)
+    if run.returncode != 0:
+        sys.exit(f"the order-1 ordinary run of the turned sample failed:\n{run.stdout}\n{run.stderr}")
+    with h5py.File(workdir / "sample.h5", "r") as f:
+        low_friction, low_bound = f["hydrodynamics/friction"][()], solver_promise.bound(f["hydrodynamics"])
+        low_grand = f["flow/grand_resistance"][()]
+    allowed = solver_promise.allowed_difference([low_bound, low_bound], low_friction)
+    difference = np.abs(big @ low_friction @ big.T - sample["control"])
+    check(low_bound is not None and np.all(difference <= allowed),
+          f"the sample's control friction is the turned order-1 ordinary run's at 5e-3, turned back (largest "
+          f"|difference| / allowed {np.max(difference / allowed):.2g})")
     # The sample's checkpoint line (after the header): 60 numbers of the sample, then its 11 x 11
     # grand resistance (Fortran order; a controlled job's control numbers follow).
     line = (workdir / "lattices.h5.continuum_checkpoint").read_text().splitlines()[1 + last].split()
@@ -204,6 +226,13 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     difference = np.abs(turn @ grand @ turn.T - sample_grand)
     check(np.all(difference <= allowed),
           f"the sample's grand resistance is the turned ordinary run's, turned back by diag(Q, Q, D(Q)) (largest "
+          f"|difference| / allowed {np.max(difference / allowed):.2g})")
+    # Then the full sample's flag and control friction (37), the control's grand resistance (121).
+    control_grand = np.array([float(x) for x in line[218:339]]).reshape(11, 11, order="F")
+    allowed = solver_promise.allowed_difference([low_bound, low_bound], low_grand)
+    difference = np.abs(turn @ low_grand @ turn.T - control_grand)
+    check(float(line[181]) == 1.0 and np.all(difference <= allowed),
+          f"the sample's control grand resistance is the turned order-1 ordinary run's, turned back (largest "
           f"|difference| / allowed {np.max(difference / allowed):.2g})")
     (m, bar_m), (t, bar_t) = aligned, turned
     check(np.all(np.abs(t - m) <= bar_m + bar_t),
