@@ -175,20 +175,24 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     # The last sample rebuilt: the mesh turned by Q^T about the pivot, on the sample's lattice.
     q = axes[last]
     write_obj(workdir / "sample.obj", pivot + (triangles - pivot) @ q)
-    nml = workdir / "sample.nml"
-    nml.write_text("&run output = 'sample.h5' /\n&shape name = 'mesh', file = 'sample.obj', "
-                   f"bead_diameter = {float(d)!r}, lattice_offset = {', '.join(repr(float(x)) for x in sample['offset'])} /\n"
-                   "&hydrodynamics flow = .true. /\n")
-    (workdir / "sample.h5").unlink(missing_ok=True)
-    run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir, capture_output=True,
-                         text=True)
-    if run.returncode != 0:
-        sys.exit(f"the ordinary run of the turned sample failed:\n{run.stdout}\n{run.stderr}")
-    with h5py.File(workdir / "sample.h5", "r") as f:
-        beads = int(f["geometry"].attrs["n_beads"])
-        h = f["hydrodynamics"]
-        friction, bound = h["friction"][()], solver_promise.bound(h)
-        grand = f["flow/grand_resistance"][()]
+
+    def ordinary_run(hydrodynamics, what):
+        """The sample rebuilt as an ordinary run: its beads, friction, solver bound and grand resistance."""
+        nml = workdir / "sample.nml"
+        nml.write_text("&run output = 'sample.h5' /\n&shape name = 'mesh', file = 'sample.obj', "
+                       f"bead_diameter = {float(d)!r}, lattice_offset = "
+                       f"{', '.join(repr(float(x)) for x in sample['offset'])} /\n&hydrodynamics {hydrodynamics} /\n")
+        (workdir / "sample.h5").unlink(missing_ok=True)
+        run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir,
+                             capture_output=True, text=True)
+        if run.returncode != 0:
+            sys.exit(f"the {what} of the turned sample failed:\n{run.stdout}\n{run.stderr}")
+        with h5py.File(workdir / "sample.h5", "r") as f:
+            h = f["hydrodynamics"]
+            return (int(f["geometry"].attrs["n_beads"]), h["friction"][()], solver_promise.bound(h),
+                    f["flow/grand_resistance"][()])
+
+    beads, friction, bound, grand = ordinary_run("flow = .true.", "ordinary run")
     check(beads == sample["beads"], f"the rebuilt sample has the sample's beads ({beads} against {sample['beads']})")
     big = np.kron(np.eye(2), q)
     allowed = solver_promise.allowed_difference([bound, bound], friction)
@@ -200,16 +204,8 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     # solves first on the same beads and starts the order-L solves from: an ordinary order-1 flow run
     # at that tolerance (its grand resistance with the beads' own stresslets, Faxen's law, as every
     # order-1 job's), turned back, within the two solves' bounds.
-    nml.write_text(nml.read_text().replace("&hydrodynamics flow = .true. /",
-                                           "&hydrodynamics multipole_order = 1, krylov_rtol = 5e-3, flow = .true. /"))
-    (workdir / "sample.h5").unlink(missing_ok=True)
-    run = subprocess.run([mpiexec, "-n", str(ranks), beadmob, str(nml), "-quiet"], cwd=workdir, capture_output=True,
-                         text=True)
-    if run.returncode != 0:
-        sys.exit(f"the order-1 ordinary run of the turned sample failed:\n{run.stdout}\n{run.stderr}")
-    with h5py.File(workdir / "sample.h5", "r") as f:
-        low_friction, low_bound = f["hydrodynamics/friction"][()], solver_promise.bound(f["hydrodynamics"])
-        low_grand = f["flow/grand_resistance"][()]
+    _, low_friction, low_bound, low_grand = ordinary_run("multipole_order = 1, krylov_rtol = 5e-3, flow = .true.",
+                                                         "order-1 ordinary run")
     allowed = solver_promise.allowed_difference([low_bound, low_bound], low_friction)
     difference = np.abs(big @ low_friction @ big.T - sample["control"])
     check(low_bound is not None and np.all(difference <= allowed),
