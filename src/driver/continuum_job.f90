@@ -405,7 +405,9 @@ contains
       type(friction_result_t) :: job_result
       real(dp) :: start, turn(6 + n_strain_modes, 6 + n_strain_modes)
       integer :: ierr
+      logical :: controlled
       start = MPI_Wtime()
+      controlled = config%continuum%control_offsets > 0
       sample%full = j <= config%continuum%offsets
       sample_config = config
       call build_at(ctx, config, mesh, survey%turns, d, j, sample_model, err, sample_config)
@@ -427,26 +429,21 @@ contains
       ! Into the input's frame from the lattice's (diag(Q, Q) and D(Q) on the strains, as
       ! friction_job.F90 turns its solve axes back).
       turn = input_frame_turn(survey%turns, d, j)
-      if (sample%full .and. config%continuum%control_offsets > 0) then
-        ! One job: the control problem first, the order-L solves started from its solutions.
-        call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err, control_rtol(config))
+      if (sample%full) then
+        ! With control samples one job: the control problem first (its companion), the order-L
+        ! solves started from its solutions.
+        call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err, &
+                            merge(control_rtol(config), 0.0_dp, controlled))
         if (err%failed) return
-        sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
-        sample%control = matmul(turn(1:6, 1:6), matmul(job_result%companion_friction, transpose(turn(1:6, 1:6))))
-        if (job_result%flow) then
-          sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
-          sample%control_grand = matmul(turn, matmul(job_result%companion_grand_resistance, transpose(turn)))
-        end if
-      else if (sample%full) then
-        call solve_friction(ctx, sample_config, sample_model%centres, job_result, sample, err)
-        if (err%failed) return
-        sample%friction = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
-        if (job_result%flow) sample%grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
+        sample%friction = turned(turn, job_result%friction)
+        if (job_result%flow) sample%grand = turned(turn, job_result%grand_resistance)
+        if (controlled) sample%control = turned(turn, job_result%companion_friction)
+        if (controlled .and. job_result%flow) sample%control_grand = turned(turn, job_result%companion_grand_resistance)
       else
-        call solve_friction(ctx, control_settings(sample_config), sample_model%centres, job_result, sample, err)
+        call solve_friction(ctx, control_settings(sample_config), sample_model%centres, job_result, sample, err, 0.0_dp)
         if (err%failed) return
-        sample%control = matmul(turn(1:6, 1:6), matmul(job_result%friction, transpose(turn(1:6, 1:6))))
-        if (job_result%flow) sample%control_grand = matmul(turn, matmul(job_result%grand_resistance, transpose(turn)))
+        sample%control = turned(turn, job_result%friction)
+        if (job_result%flow) sample%control_grand = turned(turn, job_result%grand_resistance)
       end if
       ! Rank 0's clock for all: the pilot's calibration and fill_budget decide by it.
       sample%seconds = MPI_Wtime() - start
@@ -455,7 +452,6 @@ contains
       if (config%progress .and. ctx%rank == 0) write (*, '(a, i0, a, i0, a, i0, a, es10.3, a, i0, a, f0.1, a)') &
         'beadmob: continuum level ', level, ' offset ', j, ': ', sample%beads, ' beads, d = ', d, ', ', &
         sample%iterations, ' iterations, ', sample%seconds, ' s' // either(sample%full, '', ' (control sample)')
-
     end function solve_sample
   end subroutine run_continuum_job
 
@@ -598,13 +594,13 @@ contains
     type(friction_result_t), intent(out) :: job_result
     type(continuum_sample_t), intent(inout) :: sample
     type(error_t), intent(inout) :: err
-    real(dp), intent(in), optional :: control_rtol   ! the control problem first, at this tolerance
+    real(dp), intent(in) :: control_rtol   ! > 0: the control problem first, at this tolerance
     type(run_config_t) :: solved
     type(job_plan_t) :: plan
     solved = c
     associate (job => solved%hydrodynamics)
       job%error_estimate = .false.
-      if (present(control_rtol)) job%control_rtol = control_rtol
+      job%control_rtol = control_rtol
       job%progress = .false.
       job%checkpoint_file = ''
       job%stop_after_solves = 0   ! counts samples here (run_continuum_job)
@@ -615,7 +611,7 @@ contains
       if (err%failed) return
     end associate
     call count_solves(job_result%solves)
-    if (present(control_rtol)) call count_solves(job_result%companion_solves)
+    if (control_rtol > 0.0_dp) call count_solves(job_result%companion_solves)
   contains
     subroutine count_solves(solves)
       type(solve_statistics_t), intent(in) :: solves
@@ -624,6 +620,16 @@ contains
       sample%residual = max(sample%residual, maxval(solves%true_relative_residual))
     end subroutine count_solves
   end subroutine solve_friction
+
+  !> A sample's friction (6 x 6) or grand resistance in the input's frame from its lattice's, by
+  !> `turn` (input_frame_turn), whose leading block applies to the friction.
+  pure function turned(turn, matrix)
+    real(dp), intent(in) :: turn(:, :), matrix(:, :)
+    real(dp) :: turned(size(matrix, 1), size(matrix, 1))
+    associate (t => turn(1:size(matrix, 1), 1:size(matrix, 1)))
+      turned = matmul(t, matmul(matrix, transpose(t)))
+    end associate
+  end function turned
 
   !> Collective. The body's size before any level is filled: a mesh's exact volume and second
   !> moments (moments_of_polyhedron; the lattice turns' pivot and base axes set from them),

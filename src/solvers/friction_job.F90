@@ -420,19 +420,20 @@ contains
     !> Control first: the order-L solves start from the companion's solutions on its unknowns
     !> (zero on the others), each bead's block of basis%size numbers.
     subroutine start_from_companion()
-      integer(i8) :: bead
-      allocate (solver%initial_guess(basis%size * count, 6), source=0.0_dp)
-      do bead = 1, count
-        solver%initial_guess(basis%size * (bead - 1) + unknowns, :) = &
-          low_solution(low%size * (bead - 1) + 1:low%size * bead, :)
-      end do
-      if (.not. settings%flow) return
-      allocate (solver%strain_initial_guess(basis%size * count, n_strain_modes), source=0.0_dp)
-      do bead = 1, count
-        solver%strain_initial_guess(basis%size * (bead - 1) + unknowns, :) = &
-          low_strain_solution(low%size * (bead - 1) + 1:low%size * bead, :)
-      end do
+      solver%initial_guess = embedded(low_solution)
+      if (settings%flow) solver%strain_initial_guess = embedded(low_strain_solution)
     end subroutine start_from_companion
+
+    !> Vectors of the companion's unknowns (columns) as vectors of the order-L ones.
+    pure function embedded(low_vectors) result(vectors)
+      real(dp), intent(in) :: low_vectors(:, :)
+      real(dp) :: vectors(basis%size * count, size(low_vectors, 2))
+      integer(i8) :: bead
+      vectors = 0.0_dp
+      do bead = 1, count
+        vectors(basis%size * (bead - 1) + unknowns, :) = low_vectors(low%size * (bead - 1) + 1:low%size * bead, :)
+      end do
+    end function embedded
 
     !> The companion of order L - 1 on the same beads: the sub-basis of the order-L one, its operator
     !> read from the order-L operator (create_*_companion, no new quadrature or kernel), the
