@@ -23,6 +23,10 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
 * half-range spread: the model spread as half the range of the three models' intercepts (the
   quadratic, the line through the three finest levels, the quadratic without the coarsest) instead
   of the largest distance from the quadratic's;
+* no line: the model spread from the quadratic without the coarsest level alone (the line through the
+  three finest levels left out: on ellipsoids its own intercept errs about five times as far as the
+  quadratic's, so its distance from the quadratic measures the line more than the quadratic);
+* 2 sigma alone: no model spread;
 * volume regression, moment regression: before the level means, each corrected sample's relative
   deviation from its level's mean is regressed, pooled over all levels, on its relative volume
   deviation (or on the volume and the six central second moments) and the fitted part removed: a
@@ -48,7 +52,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "volume regression", "moment regression")
+VARIANTS = ("beadmob", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "no line", "2 sigma alone",
+            "volume regression", "moment regression")
 
 
 class HalfRangeSpread(bar_module.Extrapolation):
@@ -56,6 +61,26 @@ class HalfRangeSpread(bar_module.Extrapolation):
     def model_spread(self) -> float:
         intercepts = (self.value, self.linear_value, self.reduced_value)
         return (max(intercepts) - min(intercepts)) / 2
+
+
+class ReducedSpread(bar_module.Extrapolation):
+    @property
+    def model_spread(self) -> float:
+        return abs(self.reduced_value - self.value)
+
+
+class NoSpread(bar_module.Extrapolation):
+    @property
+    def model_spread(self) -> float:
+        return 0.0
+
+
+def spread_variant(kind):
+    """beadmob's fit with the model spread of `kind` (an Extrapolation subclass)."""
+    def extrapolate(h, mean, standard_error):
+        fit = beadmob_extrapolate(h, mean, standard_error)
+        return kind(**fit.__dict__)
+    return extrapolate
 
 
 def floored_extrapolation(floor):
@@ -137,7 +162,9 @@ def use_variant(variant, job):
     """Set continuum_bar's functions for `variant` on the kept job result `job` (h5 path)."""
     bar_module.extrapolate = {"chi^2 inflation": inflated_extrapolation,
                               "floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
-                              "half-range spread": half_range_extrapolation}.get(variant, beadmob_extrapolate)
+                              "half-range spread": half_range_extrapolation,
+                              "no line": spread_variant(ReducedSpread),
+                              "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
     if variant.endswith("regression"):
         bar_module.combination_bar = regressed_bar(sample_features(job, variant == "moment regression"))

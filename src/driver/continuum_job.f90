@@ -240,6 +240,9 @@ contains
       end if
       do j = 1, config%continuum%offsets + config%continuum%control_offsets
         if (any(samples%level == level .and. samples%offset_index == j)) cycle
+        if (budget_chooses .and. j > config%continuum%offsets) then
+          if (control_overruns(level)) exit
+        end if
         call add_sample(level, j)
         if (err%failed) return
       end do
@@ -359,6 +362,42 @@ contains
         'coarsest holds ' // str(minimum_coarsest_beads) // ' beads or more), still beyond the budget', '')
       level = 1
     end subroutine keep_to_budget
+
+    !> Collective. Before a planned control sample of `level` on a ladder the budget chose: .true.
+    !> when what is left of the budget (rank 0's clock, as keep_to_budget counts it) would not pay
+    !> for it, at the mean time of the level's control samples so far (before the first: its full
+    !> samples' mean times the estimates' ratio of a control sample to a full one). The level then
+    !> keeps the samples it has (its mean and standard error are made of them, and the fill finds
+    !> no time left). keep_to_budget checks a level before it starts; this catches the finest level
+    !> running over its estimate, which no solved level foresaw: a 3-D cross whose 53k-bead level
+    !> kept its mirror planes at every offset took 17 s per full sample, its 105k-bead level none
+    !> and 158 s (the job 762 s of its 600; bench/continuum/nonconvex_control_first.md).
+    !> -fill_samples (a test: samples whatever the time) turns it off.
+    logical function control_overruns(level)
+      integer, intent(in) :: level
+      real(dp) :: expected, left, full_estimate
+      logical :: control(size(samples)), full(size(samples))
+      integer :: ierr
+      control_overruns = .false.
+      if (config%fill_samples > 0) return
+      control = samples%level == level .and. .not. samples%full
+      full = samples%level == level .and. samples%full
+      full_estimate = survey%seconds(grid_index(level))
+      expected = 0.0_dp
+      if (count(control) > 0) then
+        expected = sum(pack(samples%seconds, control)) / count(control)
+      else if (count(full) > 0 .and. full_estimate > 0.0_dp) then
+        expected = sum(pack(samples%seconds, full)) / count(full) * survey%control_seconds(grid_index(level)) / full_estimate
+      end if
+      left = config%continuum%time_budget - (MPI_Wtime() - job_start)
+      call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      control_overruns = expected > left
+      if (control_overruns .and. ctx%rank == 0) write (*, '(a)') 'beadmob: warning: &continuum: level ' // &
+        str(level) // ' keeps ' // str(count(samples%level == level)) // ' of its ' // &
+        str(config%continuum%offsets + config%continuum%control_offsets) // ' samples: its next control sample ' // &
+        '(about ' // trim(seconds_text(expected)) // ') would not fit in the ' // &
+        trim(seconds_text(max(left, 0.0_dp))) // ' left of the budget'
+    end function control_overruns
 
     !> The grid index k (bead diameter level_diameter(config, k)) of the ladder's level i.
     pure integer function grid_index(i)
