@@ -217,6 +217,12 @@ def job_sizes(folder):
     return sizes
 
 
+def shown(folder):
+    """A kept-jobs folder as written in the table: relative to the repository when inside it."""
+    folder = folder.resolve()
+    return folder.relative_to(ROOT) if folder.is_relative_to(ROOT) else folder
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--coverage", default=str(HERE / "coverage_final_runs"))
@@ -227,7 +233,7 @@ def main():
     sizes = job_sizes(nonconvex_folder)
     lines = ["# Error-bar estimators replayed on kept continuum jobs", "",
              f"Written by `bench/continuum/estimator_variants.py` on {time.strftime('%Y-%m-%d')} from the jobs kept in "
-             f"`{coverage_folder.relative_to(ROOT)}` (coverage.py) and `{nonconvex_folder.relative_to(ROOT)}` "
+             f"`{shown(coverage_folder)}` (coverage.py) and `{shown(nonconvex_folder)}` "
              "(nonconvex.py); nothing solved. The non-convex jobs replayed here: "
              + ", ".join(f"{k} ({b:.0f} s budget, finest level {n} beads)" for k, (b, n) in sizes.items())
              + ". Variants: see the script's docstring.", "",
