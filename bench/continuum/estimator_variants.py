@@ -217,6 +217,11 @@ def job_sizes(folder):
     return sizes
 
 
+def has_control_samples(job):
+    with h5py.File(job, "r") as f:
+        return f["continuum"].attrs.get("control_offsets", 0) > 0
+
+
 def shown(folder):
     """A kept-jobs folder as written in the table: relative to the repository when inside it."""
     folder = folder.resolve()
@@ -240,8 +245,7 @@ def main():
              "| variant | coverage (held / entries) | median bar / error | smallest bar / error | "
              + " | ".join(f"{k} t / r %" for k in sizes) + " |",
              "|---|---|---|---|" + "---|" * len(sizes)]
-    controlled = any(h5py.File(job, "r")["continuum"].attrs.get("control_offsets", 0) > 0
-                     for job in coverage_folder.glob("*/job.h5"))
+    controlled = any(has_control_samples(job) for job in coverage_folder.glob("*/job.h5"))
     for variant in VARIANTS:
         if controlled and variant.endswith("regression"):
             # Their regression is of each sample's order-L value, which a control sample lacks.

@@ -303,7 +303,7 @@ contains
     subroutine keep_to_budget(level)
       integer, intent(inout) :: level
       real(dp) :: ratio, left, cost(0:size(diameters) - 1), full_level, solved_seconds
-      integer :: complete, i, s, most, chosen_s, ierr
+      integer :: complete, i, s, most, chosen_s
       type(error_t) :: refused
       full_level = config%continuum%offsets + config%continuum%control_offsets
       complete = 0
@@ -314,8 +314,7 @@ contains
       solved_seconds = sum(pack(samples%seconds, samples%level == complete))
       ratio = solved_seconds / (count(samples%level == complete) / full_level * estimate_of(grid_index(complete)))
       if (.not. ratio > 0.0_dp) return
-      left = config%continuum%time_budget - (MPI_Wtime() - job_start)
-      call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      left = ladder_seconds_left()
       ! cost(s): the unsolved levels of the ladder moved s levels coarser, at the measured ratio.
       cost(0) = ratio * sum([(merge(estimate_of(grid_index(i)), 0.0_dp, count(samples%level == i) < full_level), &
                               i = 1, size(diameters))])
@@ -377,7 +376,6 @@ contains
       integer, intent(in) :: level
       real(dp) :: expected, left, full_estimate
       logical :: control(size(samples)), full(size(samples))
-      integer :: ierr
       control_overruns = .false.
       if (config%fill_samples > 0) return
       control = samples%level == level .and. .not. samples%full
@@ -389,8 +387,7 @@ contains
       else if (count(full) > 0 .and. full_estimate > 0.0_dp) then
         expected = sum(pack(samples%seconds, full)) / count(full) * survey%control_seconds(grid_index(level)) / full_estimate
       end if
-      left = config%continuum%time_budget - (MPI_Wtime() - job_start)
-      call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      left = ladder_seconds_left()
       control_overruns = expected > left
       if (control_overruns .and. ctx%rank == 0) write (*, '(a)') 'beadmob: warning: &continuum: level ' // &
         str(level) // ' keeps ' // str(count(samples%level == level)) // ' of its ' // &
@@ -398,6 +395,14 @@ contains
         '(about ' // trim(seconds_text(expected)) // ') would not fit in the ' // &
         trim(seconds_text(max(left, 0.0_dp))) // ' left of the budget'
     end function control_overruns
+
+    !> Collective. What is left of the budget for the ladder's samples, by rank 0's clock since
+    !> this process started (keep_to_budget and control_overruns decide by it alike).
+    real(dp) function ladder_seconds_left() result(left)
+      integer :: ierr
+      left = config%continuum%time_budget - (MPI_Wtime() - job_start)
+      call MPI_Bcast(left, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+    end function ladder_seconds_left
 
     !> The grid index k (bead diameter level_diameter(config, k)) of the ladder's level i.
     pure integer function grid_index(i)
