@@ -340,7 +340,7 @@ contains
   !> K^ = i^m v for m odd axes: its real part (m even) or imaginary part (m odd) is v for m = 0, 1
   !> and -v for m = 2, 3.
   pure real(dp) function final_sign(parity)
-    integer, intent(in) :: parity(3)
+    integer, intent(in) :: parity(:)   ! assumed shape: a row of octant%parity is passed without a copy
     final_sign = merge(1.0_dp, -1.0_dp, count(parity < 0) < 2)
   end function final_sign
 end module beadmob_kernel_spectrum

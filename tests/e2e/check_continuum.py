@@ -311,7 +311,8 @@ def main(beadmob, mpiexec, ranks, workdir):
     # within its bar of Stokes's mobility. -fill_samples 40 buys 40 samples whatever the time (what
     # is left of the budget depends on the machine's load; the benches measure that rule).
     fill = 40
-    nml = write_input(workdir, "filled.nml", "filled.h5", SPHERE + "&continuum time_budget = 20 /\n")
+    # Four levels (the cheapest ladder of seven would hold 8.6k beads, a minute of the Debug build).
+    nml = write_input(workdir, "filled.nml", "filled.h5", SPHERE + "&continuum levels = 4, time_budget = 20 /\n")
     (Path(workdir) / "filled.h5.continuum_checkpoint").unlink(missing_ok=True)
     done = run(beadmob, mpiexec, ranks, workdir, nml, "-fill_samples", str(fill), "-keep_checkpoint")
     if done.returncode != 0:
@@ -408,7 +409,7 @@ def main(beadmob, mpiexec, ranks, workdir):
     # sample fits in what is left, and each level keeps its 2 full samples alone (the ladder cannot
     # be checked by a complete level: none is). The job still finishes and says so per level.
     nml = write_input(workdir, "cut.nml", "cut.h5",
-                      SPHERE + "&continuum levels = 3, time_budget = 80, fill_budget = .false. /\n")
+                      SPHERE + "&continuum levels = 3, time_budget = 30, fill_budget = .false. /\n")
     done = run(beadmob, mpiexec, ranks, workdir, nml, "-slow_samples", "10000")
     cut = continuum(Path(workdir) / "cut.h5") if done.returncode == 0 else None
     if cut is None:
