@@ -14,9 +14,9 @@ forms where beadmob has the analytic shape:
   1.00018, so that the polyhedron's volume is the ellipsoid's: within 1.8e-4 of the surface in the
   sphere's frame), turned by a random rotation R and moved to a random centre c (x = R p + c;
   p the principal coordinates). R is the unit quaternion of 4 standard normals and c uniform in
-  [-3, 3]^3, both from numpy's default_rng([44, i]), i the body's place in the list below (a fixed
-  seed), so a body keeps its placement whichever subset runs; R and c are in each job's
-  meta.json.
+  [-3, 3]^3, both from numpy's default_rng([seed, i]), i the body's place in the list below and the
+  seed 44 unless --seed gives another (fixed, so a body keeps its placement whichever subset runs;
+  another seed turns and moves every mesh anew); R and c are in each job's meta.json.
 
 Bodies (`--bodies` keys): sphere; prolate spheroids 2:1, 4:1, 10:1 (semi-axes a:1:1) and oblate
 1:2, 1:4, 1:10 (1:b:b); triaxial ellipsoids 3:2:1 and 2.7:1.6:1; two equal spheres of radius 1 at
@@ -141,9 +141,9 @@ def unit_sphere_mesh():
     return triangles, float(np.max(np.abs(radii - 1)))
 
 
-def placement(index):
+def placement(index, seed=SEED):
     """(R, c): a random rotation (columns: the principal axes in the input frame) and centre."""
-    rng = np.random.default_rng([SEED, index])
+    rng = np.random.default_rng([seed, index])
     w, x, y, z = (q := rng.standard_normal(4)) / np.linalg.norm(q)
     rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                          [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
@@ -180,11 +180,11 @@ def build_version(exe):
     return subprocess.run([str(exe), "--version"], capture_output=True, text=True).stdout.strip()
 
 
-def solve(exe, body, index, form, budget, folder, extra=""):
+def solve(exe, body, index, form, budget, folder, extra="", seed=SEED):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "meta.json").unlink(missing_ok=True)
     rotation, centre = np.eye(3), np.zeros(3)
-    meta = {"body": body.key, "form": form, "budget": budget, "exe": str(exe), "source": build_version(exe),
+    meta = {"body": body.key, "form": form, "budget": budget, "seed": seed, "exe": str(exe), "source": build_version(exe),
             "date": datetime.date.today().isoformat(), "continuum": extra}
     if form == "analytic":
         if body.semi_axes == (1, 1, 1):
@@ -192,7 +192,7 @@ def solve(exe, body, index, form, budget, folder, extra=""):
         else:
             shape = spheroid(body.semi_axes, body.bead_diameter)
     else:
-        rotation, centre = placement(index)
+        rotation, centre = placement(index, seed)
         triangles, deviation = body_triangles(body, rotation, centre)
         write_stl(folder / "body.stl", triangles)
         meta.update(triangles=len(triangles), mesh_deviation=deviation)
@@ -443,6 +443,8 @@ def main():
                         help="with --reuse: first redo each kept job's extrapolation with --exe from its checkpoint")
     parser.add_argument("--out", default=str(Path(__file__).with_name("coverage.md")))
     parser.add_argument("--list", action="store_true", help="print the bodies and their placements and stop")
+    parser.add_argument("--seed", type=int, default=SEED,
+                        help=f"the meshes' random placements (default {SEED}; another seed: bodies turned anew)")
     arguments = parser.parse_args()
     keys = arguments.bodies.split(",")
     forms = arguments.forms.split(",")
@@ -452,7 +454,7 @@ def main():
     selected = [(i, body, form) for form in forms for i, body in enumerate(BODIES) if body.key in keys and form in body.forms]
     if arguments.list:
         for i, body, form in selected:
-            rotation, centre = placement(i)
+            rotation, centre = placement(i, arguments.seed)
             print(body.key, form, body.label, "exact", body.exact(), "centre", centre if form == "mesh" else "-")
         return
     keep = Path(arguments.reuse or arguments.keep).resolve()
@@ -464,7 +466,8 @@ def main():
             print(f"{body.key} {form}: " + ("no checkpoint kept" if meta is None else f"refit in {meta['refit_wall']:.0f} s"),
                   flush=True)
         if not arguments.reuse:
-            meta = solve(Path(arguments.exe).resolve(), body, i, form, arguments.budget, folder, arguments.continuum)
+            meta = solve(Path(arguments.exe).resolve(), body, i, form, arguments.budget, folder, arguments.continuum,
+                         arguments.seed)
             print(f"{body.key} {form}: " + (f"failed: {meta['failed']}" if "failed" in meta else f"{meta['wall']:.0f} s"),
                   flush=True)
         rows.append(analyse(body, form, folder))
