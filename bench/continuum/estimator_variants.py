@@ -14,18 +14,23 @@ a solve, on the samples of jobs already run and kept:
   relative to the value, in the body's principal frame.
 
 Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/continuum_bar.py):
-* beadmob: as the job does it (the reference row: the levels' random-effects excess variance since
-  be29465; the coverage replay reproduces the bars of files written since);
+* beadmob: as the job does it (the reference row; since 51273d1 the model spread is how far the cubic's
+  and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise;
+  the coverage replay reproduces the bars of files written since);
+* line spread (before 51273d1): the model spread as the largest distance of the line through the
+  three finest levels and of the quadratic without the coarsest from the quadratic, noise and all;
 * chi^2 inflation: the estimator before be29465, weights 1 / s_k^2 and the intercept's variance
-  times max(1, chi^2 / (K - 3)) (a level whose offsets agree keeps its full weight);
+  times max(1, chi^2 / (K - 3)) (a level whose offsets agree keeps its full weight), with the line
+  spread of its time;
 * floor 0.5, floor 1: a level's standard error floored at half / all of the median level's
   (beadmob: a fifth), i.e. levels whose offsets happen to agree weigh less;
 * half-range spread: the model spread as half the range of the three models' intercepts (the
   quadratic, the line through the three finest levels, the quadratic without the coarsest) instead
   of the largest distance from the quadratic's;
-* no line: the model spread from the quadratic without the coarsest level alone (the line through the
-  three finest levels left out: on ellipsoids its own intercept errs about five times as far as the
-  quadratic's, so its distance from the quadratic measures the line more than the quadratic);
+* no line: the model spread as the quadratic without the coarsest level's distance alone, noise and all
+  (the line through the three finest levels left out: on ellipsoids its own intercept errs about
+  five times as far as the quadratic's, so its distance from the quadratic measures the line more
+  than the quadratic);
 * 2 sigma alone: no model spread;
 * volume regression, moment regression: before the level means, each corrected sample's relative
   deviation from its level's mean is regressed, pooled over all levels, on its relative volume
@@ -52,7 +57,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "no line", "2 sigma alone",
+VARIANTS = ("beadmob", "line spread (before 51273d1)", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
+            "no line", "2 sigma alone",
             "volume regression", "moment regression")
 
 
@@ -61,6 +67,12 @@ class HalfRangeSpread(bar_module.Extrapolation):
     def model_spread(self) -> float:
         intercepts = (self.value, self.linear_value, self.reduced_value)
         return (max(intercepts) - min(intercepts)) / 2
+
+
+class LineSpread(bar_module.Extrapolation):
+    @property
+    def model_spread(self) -> float:
+        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
 
 
 class ReducedSpread(bar_module.Extrapolation):
@@ -112,8 +124,7 @@ def inflated_extrapolation(h, mean, standard_error):
     order = np.argsort(h, kind="stable")
     linear = polynomial(h[order[:3]], mean[order[:3]], weights[order[:3]], 1)[0][0]
     reduced = polynomial(h[order[:-1]], mean[order[:-1]], weights[order[:-1]], 2)[0][0] if n > 3 else coefficients[0]
-    return bar_module.Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
-                                    float(reduced_chi2))
+    return LineSpread(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced), float(reduced_chi2))
 
 
 def half_range_extrapolation(h, mean, standard_error):
@@ -163,6 +174,7 @@ def use_variant(variant, job):
     bar_module.extrapolate = {"chi^2 inflation": inflated_extrapolation,
                               "floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
                               "half-range spread": half_range_extrapolation,
+                              "line spread (before 51273d1)": spread_variant(LineSpread),
                               "no line": spread_variant(ReducedSpread),
                               "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar

@@ -154,8 +154,8 @@ def excess_variance(h: np.ndarray, mean: np.ndarray, level_variance: np.ndarray)
 def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
     """continuum_fit.f90's extrapolate_to_zero: level variances s_k^2 = max(se, a fifth of the median
     level's se, 1e-9 |mean|)^2, weights 1 / (s_k^2 + tau^2) with the random-effects excess tau^2
-    (excess_variance); the quadratic over all levels, the line through the three finest levels (recorded,
-    not in the bar), and with their standard errors the quadratic without the coarsest and the cubic."""
+    (excess_variance); the quadratic over all levels, the line through the three finest levels (in the
+    model spread of a three-level ladder only), the quadratic without the coarsest and the cubic."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
     median = np.sort(standard_error)[(n + 1) // 2 - 1]
@@ -168,9 +168,18 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
     order = np.argsort(h, kind="stable")
     finest = order[:3]
-    linear = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1)[0][0]
+    linear_coefficients, _, _, finest_row = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1,
+                                                                 with_row=True)
+    linear, line_row = linear_coefficients[0], np.zeros(n)
+    line_row[finest] = finest_row
     reduced = cubic = coefficients[0]
-    spread = 0.0
+
+    def beyond_noise(other, row):
+        # beyond the sampling noise of the difference, sum_k (r_k - r_full,k)^2 s_k^2 (tau not subtracted)
+        return float(np.sqrt(max((other - coefficients[0]) ** 2 - np.sum((row - full_row) ** 2 * sigma**2), 0.0)))
+
+    # three levels: the line's move (a term less) is the one comparison left
+    spread = beyond_noise(linear, line_row)
     if n > 3:
         kept = order[: n - 1]
         reduced_coefficients, _, _, kept_row = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2, with_row=True)
@@ -178,9 +187,7 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
         reduced_row[kept] = kept_row
         cubic_coefficients, _, _, cubic_row = _weighted_polynomial(h, mean, weights, 3, with_row=True)
         cubic = cubic_coefficients[0]
-        # beyond the sampling noise of the difference, sum_k (r_k - r_full,k)^2 s_k^2 (tau not subtracted)
-        spread = max(np.sqrt(max((other - coefficients[0]) ** 2 - np.sum((row - full_row) ** 2 * sigma**2), 0.0))
-                     for other, row in ((reduced, reduced_row), (cubic, cubic_row)))
+        spread = max(beyond_noise(reduced, reduced_row), beyond_noise(cubic, cubic_row))
     return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
                          float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2), float(cubic), float(spread))
 

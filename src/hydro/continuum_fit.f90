@@ -11,10 +11,10 @@
 !>   - the model spread: how far the intercept moves when the model gains a term (the cubic) or
 !>     loses its coarsest level (the quadratic without it), beyond what the levels' sampling noise
 !>     (their offsets' standard errors) would move it; the excess scatter tau is not subtracted,
-!>     since it may be the model's own misfit,
+!>     since it may be the model's own misfit (with three levels only: the line's move, a term less),
 !> plus what the caller knows besides (the continuum volume's own uncertainty). The line through
-!> the three finest levels is recorded but not in the bar: on ellipsoids its intercept erred five
-!> times as far as the quadratic's (bench/continuum/estimator_variants_control_first.md).
+!> the three finest levels is in the bar of a three-level ladder only: on ellipsoids its intercept
+!> erred five times as far as the quadratic's (bench/continuum/estimator_variants_control_first.md).
 module beadmob_continuum_fit
   use beadmob_kinds, only: dp
   implicit none
@@ -78,7 +78,7 @@ module beadmob_continuum_fit
     !> standard errors (0: none; large against the bar: the means do not follow one smooth law in h)
     real(dp) :: mobility_level_excess(6, 6) = 0.0_dp, coefficient_level_excess(5) = 0.0_dp
     real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
-    real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
+    real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp, coefficient_cubic(5) = 0.0_dp
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
     !> A flow job (theory.md T19): per sample its corrected velocity (6 x 5) and stresslet (5 x 5) per
     !> unit strain (columns flattened, about the body's centroid, input axes), per level their means
@@ -170,6 +170,7 @@ contains
     real(dp) :: weights(size(h)), level_variance(size(h)), coefficients(4), variance, chi2
     ! Each fit's intercept as weights on the level means (zero on a level it leaves out).
     real(dp) :: full_row(size(h)), reduced_row(size(h)), cubic_row(size(h)), kept_row(max(size(h) - 1, 1))
+    real(dp) :: line_row(size(h)), finest_row(3)
     integer :: order(size(h)), n
     n = size(h)
     level_variance = floored_variance(standard_error, mean)
@@ -184,12 +185,16 @@ contains
     ! The three finest levels (smallest h) for the line; all but the coarsest for the reduced fit.
     order = ranks_by_size(h)
     associate (finest => order(1:3))
-      call weighted_polynomial(h(finest), mean(finest), weights(finest), 1, coefficients, variance, chi2)
+      call weighted_polynomial(h(finest), mean(finest), weights(finest), 1, coefficients, variance, chi2, finest_row)
       fit%linear_value = coefficients(1)
+      line_row = 0.0_dp
+      line_row(finest) = finest_row
     end associate
     fit%reduced_value = fit%value
     fit%cubic_value = fit%value
-    fit%model_spread = 0.0_dp
+    ! Three levels allow no larger model and no smaller ladder: the one comparison left is with a
+    ! term less, the line, which measures the curvature itself (conservative).
+    fit%model_spread = beyond_noise(fit%linear_value, line_row)
     if (n > 3) then
       associate (kept => order(1:n - 1))
         call weighted_polynomial(h(kept), mean(kept), weights(kept), 2, coefficients, variance, chi2, kept_row)

@@ -99,6 +99,20 @@ def test_model_spread_is_the_cubic_beyond_the_noise():
     assert abs(fit.value - 0.05) <= fit.fit_error
 
 
+def test_three_levels_spread_is_the_line_beyond_the_noise():
+    """Three levels allow neither a cubic nor a reduced quadratic: the spread is the line's distance
+    (numpy.polyfit) beyond its noise, and on an exact quadratic that is the curvature's whole effect."""
+    h, se = H[-3:], np.full(3, 1e-7)
+    mean = 0.05 * (1 + 0.3 * h - 0.5 * h**2)
+    fit = extrapolate(h, mean, se)
+    line_row = np.array([np.polyfit(h, np.eye(3)[k], 1, w=1 / se)[-1] for k in range(3)])
+    quad_row = np.array([np.polyfit(h, np.eye(3)[k], 2, w=1 / se)[-1] for k in range(3)])
+    line = np.polyfit(h, mean, 1, w=1 / se)[-1]
+    expected = np.sqrt(max((line - 0.05) ** 2 - np.sum((line_row - quad_row) ** 2 * se**2), 0.0))
+    assert fit.value == pytest.approx(0.05, rel=1e-10) and fit.linear_value == pytest.approx(line, rel=1e-10)
+    assert fit.model_spread == pytest.approx(expected, rel=1e-6) and fit.model_spread > 0
+
+
 def test_noisy_levels_match_numpy_refit():
     rng = np.random.default_rng(1)
     mean = 0.05 * (1 + 0.3 * H - 0.5 * H**2) + rng.normal(scale=1e-4, size=7)
