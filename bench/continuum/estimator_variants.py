@@ -14,11 +14,12 @@ a solve, on the samples of jobs already run and kept:
   relative to the value, in the body's principal frame.
 
 Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/continuum_bar.py):
-* beadmob: as the job does it (the reference row; since 51273d1 the model spread is how far the cubic's
-  and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise;
-  the coverage replay reproduces the bars of files written since);
-* line spread (before 51273d1): the model spread as the largest distance of the line through the
-  three finest levels and of the quadratic without the coarsest from the quadratic, noise and all;
+* beadmob: as the job does it (the reference row: the levels' random-effects excess variance since
+  be29465; the coverage replay reproduces the bars of files written since);
+* cubic beyond noise (built in 51273d1 and 7b47e0c, reverted): the model spread as how far the cubic's
+  and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise
+  of each difference, sum_k (r_k - r_quadratic,k)^2 s_k^2 (r: an intercept's weights on the level
+  means; tau not subtracted); the line only on three-level ladders, where nothing else is possible;
 * chi^2 inflation: the estimator before be29465, weights 1 / s_k^2 and the intercept's variance
   times max(1, chi^2 / (K - 3)) (a level whose offsets agree keeps its full weight), with the line
   spread of its time;
@@ -41,6 +42,7 @@ Kept jobs are not in the repository (the benches' run folders are ignored by git
 and nonconvex.py with --keep first, or point --coverage / --nonconvex at their folders."""
 import argparse
 import json
+from dataclasses import dataclass
 import sys
 import time
 from pathlib import Path
@@ -57,7 +59,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob", "line spread (before 51273d1)", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
+VARIANTS = ("beadmob", "cubic beyond noise", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
             "no line", "2 sigma alone",
             "volume regression", "moment regression")
 
@@ -67,12 +69,6 @@ class HalfRangeSpread(bar_module.Extrapolation):
     def model_spread(self) -> float:
         intercepts = (self.value, self.linear_value, self.reduced_value)
         return (max(intercepts) - min(intercepts)) / 2
-
-
-class LineSpread(bar_module.Extrapolation):
-    @property
-    def model_spread(self) -> float:
-        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
 
 
 class ReducedSpread(bar_module.Extrapolation):
@@ -124,7 +120,50 @@ def inflated_extrapolation(h, mean, standard_error):
     order = np.argsort(h, kind="stable")
     linear = polynomial(h[order[:3]], mean[order[:3]], weights[order[:3]], 1)[0][0]
     reduced = polynomial(h[order[:-1]], mean[order[:-1]], weights[order[:-1]], 2)[0][0] if n > 3 else coefficients[0]
-    return LineSpread(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced), float(reduced_chi2))
+    return bar_module.Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
+                                    float(reduced_chi2))
+
+
+@dataclass(frozen=True)
+class FixedSpread(bar_module.Extrapolation):
+    spread: float = 0.0
+
+    @property
+    def model_spread(self) -> float:
+        return self.spread
+
+
+def intercept_row(h, weights, degree):
+    """The weighted polynomial fit's intercept as weights on the level means (least squares of the unit vectors)."""
+    basis = np.vander(h / np.max(np.abs(h)), degree + 1, increasing=True)
+    scaled = weights / np.max(weights)
+    return np.linalg.solve(basis.T @ (scaled[:, None] * basis), basis.T * scaled)[0]
+
+
+def cubic_beyond_noise(h, mean, standard_error):
+    """beadmob's fit with the model spread of 51273d1 (reverted): the cubic's and the reduced quadratic's
+    moves beyond the levels' sampling noise (s_k: beadmob's floored standard errors, tau not subtracted)."""
+    fit = beadmob_extrapolate(h, mean, standard_error)
+    h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
+    n = len(h)
+    median = np.sort(standard_error)[(n + 1) // 2 - 1]
+    sigma = np.maximum.reduce([standard_error, np.full(n, bar_module.STANDARD_ERROR_FLOOR * median),
+                               1e-9 * np.abs(mean), np.full(n, np.sqrt(np.finfo(float).tiny))])
+    weights = 1.0 / (sigma**2 + fit.excess_deviation**2)
+    full_row = intercept_row(h, weights, 2)
+    order = np.argsort(h, kind="stable")
+    others = []
+    if n > 3:
+        reduced = np.zeros(n)
+        reduced[order[:-1]] = intercept_row(h[order[:-1]], weights[order[:-1]], 2)
+        others = [reduced, intercept_row(h, weights, 3)]
+    else:
+        line = np.zeros(n)
+        line[order[:3]] = intercept_row(h[order[:3]], weights[order[:3]], 1)
+        others = [line]
+    spread = max(np.sqrt(max(((row - full_row) @ mean) ** 2 - np.sum((row - full_row) ** 2 * sigma**2), 0.0))
+                 for row in others)
+    return FixedSpread(**fit.__dict__, spread=float(spread))
 
 
 def half_range_extrapolation(h, mean, standard_error):
@@ -174,7 +213,7 @@ def use_variant(variant, job):
     bar_module.extrapolate = {"chi^2 inflation": inflated_extrapolation,
                               "floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
                               "half-range spread": half_range_extrapolation,
-                              "line spread (before 51273d1)": spread_variant(LineSpread),
+                              "cubic beyond noise": cubic_beyond_noise,
                               "no line": spread_variant(ReducedSpread),
                               "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
@@ -218,6 +257,18 @@ def nonconvex_bars(variant, folder):
     return bars
 
 
+def sphere_row(variant, files):
+    """Held / entries and the largest error / bar of the six diagonal entries of each sphere job
+    (radius 1, viscosity 1) against Stokes: 1 / (6 pi), 1 / (8 pi)."""
+    exact = np.array([1 / (6 * np.pi)] * 3 + [1 / (8 * np.pi)] * 3)
+    ratios = []
+    for path in files:
+        use_variant(variant, path)
+        replayed = bar_module.principal_diagonal(bar_module.read_samples(path), np.eye(3))
+        ratios += [abs(value - e) / bar for (value, bar, _), e in zip(replayed, exact)]
+    return int(np.sum(np.array(ratios) <= 1)), len(ratios), float(np.max(ratios))
+
+
 def job_sizes(folder):
     sizes = {}
     for key in NONCONVEX:
@@ -244,6 +295,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--coverage", default=str(HERE / "coverage_final_runs"))
     parser.add_argument("--nonconvex", default=str(HERE / "nonconvex_runs"))
+    parser.add_argument("--spheres", nargs="*", default=[],
+                        help="result files of continuum jobs of a sphere of radius 1 (e.g. CTest continuum_np2's) "
+                             "to replay against Stokes")
     parser.add_argument("--out", default=str(HERE / "estimator_variants.md"))
     args = parser.parse_args()
     coverage_folder, nonconvex_folder = Path(args.coverage), Path(args.nonconvex)
@@ -255,8 +309,9 @@ def main():
              + ", ".join(f"{k} ({b:.0f} s budget, finest level {n} beads)" for k, (b, n) in sizes.items())
              + ". Variants: see the script's docstring.", "",
              "| variant | coverage (held / entries) | median bar / error | smallest bar / error | "
-             + " | ".join(f"{k} t / r %" for k in sizes) + " |",
-             "|---|---|---|---|" + "---|" * len(sizes)]
+             + " | ".join(f"{k} t / r %" for k in sizes) + " |" + (" spheres (held / entries, largest error / bar) |"
+                                                                  if args.spheres else ""),
+             "|---|---|---|---|" + "---|" * (len(sizes) + bool(args.spheres))]
     controlled = any(has_control_samples(job) for job in coverage_folder.glob("*/job.h5"))
     for variant in VARIANTS:
         if controlled and variant.endswith("regression"):
@@ -268,6 +323,9 @@ def main():
         bars = nonconvex_bars(variant, nonconvex_folder)
         lines.append(f"| {variant} | {held} / {total} | {median:.2f} | {smallest:.2f} | "
                      + " | ".join(f"{bars[k][0]:.3f} / {bars[k][1]:.3f}" for k in sizes) + " |")
+        if args.spheres:
+            held, total, worst = sphere_row(variant, args.spheres)
+            lines[-1] += f" {held} / {total}, {worst:.2f} |"
         print(lines[-1], flush=True)
     Path(args.out).write_text("\n".join(lines) + "\n")
 

@@ -45,14 +45,10 @@ class Extrapolation:
     reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3; 1 with an excess)
     excess_deviation: float = 0.0        # tau: the levels' scatter beyond their standard errors
     plain_reduced_chi2: float = float("nan")   # chi^2 / (K - 3) with weights 1 / s_k^2 alone (above 1: tau > 0)
-    cubic_value: float = float("nan")    # the cubic over all levels (four or more), at h = 0
-    spread: float = 0.0                  # see model_spread
 
     @property
     def model_spread(self) -> float:
-        """How far the cubic's and the reduced quadratic's intercepts lie from the quadratic's beyond
-        the levels' sampling noise of each difference (continuum_fit.f90): the larger."""
-        return self.spread
+        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
 
     @property
     def fit_error(self) -> float:
@@ -119,18 +115,14 @@ def controlled_level_means(values: np.ndarray, controls: np.ndarray, full: np.nd
     return mean, error
 
 
-def _weighted_polynomial(x, y, w, degree, with_row=False):
-    # columns in x / max|x| as continuum_fit.f90 scales them (a cubic in h ~ 1e-2 would lose digits)
-    scale = float(np.max(np.abs(x)))
-    basis = np.vander(x / scale, degree + 1, increasing=True)
+def _weighted_polynomial(x, y, w, degree):
+    basis = np.vander(x, degree + 1, increasing=True)
     largest = np.max(w)
     normal = basis.T @ ((w / largest)[:, None] * basis)
     inverse = np.linalg.inv(normal)
     coefficients = inverse @ (basis.T @ ((w / largest) * y))
     chi2 = float(np.sum(w * (y - basis @ coefficients) ** 2))
-    fitted = coefficients / scale ** np.arange(degree + 1), float(inverse[0, 0] / largest), chi2
-    # the intercept as weights on y
-    return (*fitted, (inverse[0] @ basis.T) * (w / largest)) if with_row else fitted
+    return coefficients, float(inverse[0, 0] / largest), chi2
 
 
 def excess_variance(h: np.ndarray, mean: np.ndarray, level_variance: np.ndarray) -> float:
@@ -154,8 +146,8 @@ def excess_variance(h: np.ndarray, mean: np.ndarray, level_variance: np.ndarray)
 def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
     """continuum_fit.f90's extrapolate_to_zero: level variances s_k^2 = max(se, a fifth of the median
     level's se, 1e-9 |mean|)^2, weights 1 / (s_k^2 + tau^2) with the random-effects excess tau^2
-    (excess_variance); the quadratic over all levels, the line through the three finest levels (in the
-    model spread of a three-level ladder only), the quadratic without the coarsest and the cubic."""
+    (excess_variance); the quadratic over all levels, the line through the three finest levels and the
+    quadratic without the coarsest."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
     median = np.sort(standard_error)[(n + 1) // 2 - 1]
@@ -164,32 +156,17 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     excess = excess_variance(h, mean, sigma**2)
     plain_chi2 = _weighted_polynomial(h, mean, 1.0 / sigma**2, 2)[2] / (n - 3) if n > 3 else float("nan")
     weights = 1.0 / (sigma**2 + excess)
-    coefficients, variance, chi2, full_row = _weighted_polynomial(h, mean, weights, 2, with_row=True)
+    coefficients, variance, chi2 = _weighted_polynomial(h, mean, weights, 2)
     reduced_chi2 = chi2 / (n - 3) if n > 3 else float("nan")
     order = np.argsort(h, kind="stable")
     finest = order[:3]
-    linear_coefficients, _, _, finest_row = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1,
-                                                                 with_row=True)
-    linear, line_row = linear_coefficients[0], np.zeros(n)
-    line_row[finest] = finest_row
-    reduced = cubic = coefficients[0]
-
-    def beyond_noise(other, row):
-        # beyond the sampling noise of the difference, sum_k (r_k - r_full,k)^2 s_k^2 (tau not subtracted)
-        return float(np.sqrt(max((other - coefficients[0]) ** 2 - np.sum((row - full_row) ** 2 * sigma**2), 0.0)))
-
-    # three levels: the line's move (a term less) is the one comparison left
-    spread = beyond_noise(linear, line_row)
+    linear = _weighted_polynomial(h[finest], mean[finest], weights[finest], 1)[0][0]
+    reduced = coefficients[0]
     if n > 3:
         kept = order[: n - 1]
-        reduced_coefficients, _, _, kept_row = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2, with_row=True)
-        reduced, reduced_row = reduced_coefficients[0], np.zeros(n)
-        reduced_row[kept] = kept_row
-        cubic_coefficients, _, _, cubic_row = _weighted_polynomial(h, mean, weights, 3, with_row=True)
-        cubic = cubic_coefficients[0]
-        spread = max(beyond_noise(reduced, reduced_row), beyond_noise(cubic, cubic_row))
+        reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
     return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
-                         float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2), float(cubic), float(spread))
+                         float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2))
 
 
 def combination_level_means(samples: ContinuumSamples, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

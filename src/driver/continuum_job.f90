@@ -1233,7 +1233,6 @@ contains
       result%coefficient_standard_error(q) = fit%standard_error
       result%coefficient_linear(q) = fit%linear_value
       result%coefficient_reduced(q) = fit%reduced_value
-      result%coefficient_cubic(q) = fit%cubic_value
       result%coefficient_level_excess(q) = fit%excess_deviation
     end do
     result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))

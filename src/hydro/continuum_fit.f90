@@ -8,13 +8,9 @@
 !> a level whose offsets happened to agree then no longer pins the fit. The error bar is the
 !> quadrature sum of
 !>   - twice the fit's standard error of the intercept and
-!>   - the model spread: how far the intercept moves when the model gains a term (the cubic) or
-!>     loses its coarsest level (the quadratic without it), beyond what the levels' sampling noise
-!>     (their offsets' standard errors) would move it; the excess scatter tau is not subtracted,
-!>     since it may be the model's own misfit (with three levels only: the line's move, a term less),
-!> plus what the caller knows besides (the continuum volume's own uncertainty). The line through
-!> the three finest levels is in the bar of a three-level ladder only: on ellipsoids its intercept
-!> erred five times as far as the quadratic's (bench/continuum/estimator_variants_control_first.md).
+!>   - the model spread: how far the straight line through the three finest levels and the
+!>     quadratic without the coarsest level land from the quadratic,
+!> plus what the caller knows besides (the continuum volume's own uncertainty).
 module beadmob_continuum_fit
   use beadmob_kinds, only: dp
   implicit none
@@ -78,7 +74,7 @@ module beadmob_continuum_fit
     !> standard errors (0: none; large against the bar: the means do not follow one smooth law in h)
     real(dp) :: mobility_level_excess(6, 6) = 0.0_dp, coefficient_level_excess(5) = 0.0_dp
     real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
-    real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp, coefficient_cubic(5) = 0.0_dp
+    real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
     !> A flow job (theory.md T19): per sample its corrected velocity (6 x 5) and stresslet (5 x 5) per
     !> unit strain (columns flattened, about the body's centroid, input axes), per level their means
@@ -102,8 +98,6 @@ module beadmob_continuum_fit
     real(dp) :: standard_error = 0.0_dp ! of that intercept
     real(dp) :: linear_value = 0.0_dp   ! intercept of the line through the three finest levels
     real(dp) :: reduced_value = 0.0_dp  ! intercept of the quadratic without the coarsest level
-    real(dp) :: cubic_value = 0.0_dp    ! intercept of the cubic over all levels (four or more)
-    real(dp) :: model_spread = 0.0_dp   ! the larger move of the two beyond the noise (module header)
     real(dp) :: slope = 0.0_dp          ! d value / d h at h = 0
     real(dp) :: excess_deviation = 0.0_dp ! tau: how far the level means scatter beyond their standard errors
     real(dp) :: error = 0.0_dp          ! the error bar (module header)
@@ -167,10 +161,7 @@ contains
   pure function extrapolate_to_zero(h, mean, standard_error, extra) result(fit)
     real(dp), intent(in) :: h(:), mean(:), standard_error(:), extra
     type(continuum_value_t) :: fit
-    real(dp) :: weights(size(h)), level_variance(size(h)), coefficients(4), variance, chi2
-    ! Each fit's intercept as weights on the level means (zero on a level it leaves out).
-    real(dp) :: full_row(size(h)), reduced_row(size(h)), cubic_row(size(h)), kept_row(max(size(h) - 1, 1))
-    real(dp) :: line_row(size(h)), finest_row(3)
+    real(dp) :: weights(size(h)), level_variance(size(h)), coefficients(3), variance, chi2
     integer :: order(size(h)), n
     n = size(h)
     level_variance = floored_variance(standard_error, mean)
@@ -178,44 +169,27 @@ contains
     ! share the excess: weights 1 / (s_k^2 + tau^2), whose chi^2 then equals its degrees of freedom.
     fit%excess_deviation = sqrt(excess_variance(h, mean, level_variance))
     weights = 1.0_dp / (level_variance + fit%excess_deviation**2)
-    call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2, full_row)
+    call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
     fit%value = coefficients(1)
     fit%slope = coefficients(2)
     fit%standard_error = sqrt(variance)
     ! The three finest levels (smallest h) for the line; all but the coarsest for the reduced fit.
     order = ranks_by_size(h)
     associate (finest => order(1:3))
-      call weighted_polynomial(h(finest), mean(finest), weights(finest), 1, coefficients, variance, chi2, finest_row)
+      call weighted_polynomial(h(finest), mean(finest), weights(finest), 1, coefficients, variance, chi2)
       fit%linear_value = coefficients(1)
-      line_row = 0.0_dp
-      line_row(finest) = finest_row
     end associate
     fit%reduced_value = fit%value
-    fit%cubic_value = fit%value
-    ! Three levels allow no larger model and no smaller ladder: the one comparison left is with a
-    ! term less, the line, which measures the curvature itself (conservative).
-    fit%model_spread = beyond_noise(fit%linear_value, line_row)
     if (n > 3) then
       associate (kept => order(1:n - 1))
-        call weighted_polynomial(h(kept), mean(kept), weights(kept), 2, coefficients, variance, chi2, kept_row)
+        call weighted_polynomial(h(kept), mean(kept), weights(kept), 2, coefficients, variance, chi2)
         fit%reduced_value = coefficients(1)
-        reduced_row = 0.0_dp
-        reduced_row(kept) = kept_row
       end associate
-      call weighted_polynomial(h, mean, weights, 3, coefficients, variance, chi2, cubic_row)
-      fit%cubic_value = coefficients(1)
-      ! Where the quadratic holds, another intercept differs from it by noise alone, of variance
-      ! sum_k (r_k - r_full,k)^2 s_k^2 from the levels' sampling noise: only the rest is the model's.
-      fit%model_spread = max(beyond_noise(fit%reduced_value, reduced_row), beyond_noise(fit%cubic_value, cubic_row))
     end if
     ! The fit's noise (2 sigma) and the model's uncertainty (the spread) are independent: their
     ! quadrature sum (docs/theory.md T18, "The error bar").
-    fit%error = hypot(2.0_dp * fit%standard_error, fit%model_spread) + extra
-  contains
-    pure real(dp) function beyond_noise(other_value, other_row)
-      real(dp), intent(in) :: other_value, other_row(:)
-      beyond_noise = sqrt(max((other_value - fit%value)**2 - sum((other_row - full_row)**2 * level_variance), 0.0_dp))
-    end function beyond_noise
+    fit%error = hypot(2.0_dp * fit%standard_error, max(abs(fit%linear_value - fit%value), &
+                                                       abs(fit%reduced_value - fit%value))) + extra
   end function extrapolate_to_zero
 
   !> The variance of the quadratic's intercept over levels at h with these standard errors (floored
@@ -274,13 +248,10 @@ contains
   !> Least squares of y ~ sum_j c_j x^(j-1), j = 1..degree+1, with weights w (1 / variance);
   !> variance: of c_1; chi2: the weighted residual sum. Columns scaled by max |x| and weights by
   !> their largest for conditioning (the fit does not change; huge weights do not overflow).
-  !> coefficients holds at least degree + 1 entries; those beyond are 0. intercept_row: c_1 as
-  !> weights on y (c_1 = sum_k intercept_row(k) y(k)).
-  pure subroutine weighted_polynomial(x, y, w, degree, coefficients, variance, chi2, intercept_row)
+  pure subroutine weighted_polynomial(x, y, w, degree, coefficients, variance, chi2)
     real(dp), intent(in) :: x(:), y(:), w(:)
     integer, intent(in) :: degree
-    real(dp), intent(out) :: coefficients(:), variance, chi2
-    real(dp), intent(out), optional :: intercept_row(:)
+    real(dp), intent(out) :: coefficients(3), variance, chi2
     real(dp) :: basis(size(x), degree + 1), normal(degree + 1, degree + 1), inverse(degree + 1, degree + 1)
     real(dp) :: scale, largest
     integer :: j
@@ -295,7 +266,6 @@ contains
     coefficients(1:degree + 1) = matmul(inverse, matmul(transpose(basis), (w / largest) * y))
     chi2 = sum(w * (y - matmul(basis, coefficients(1:degree + 1)))**2)
     variance = inverse(1, 1) / largest
-    if (present(intercept_row)) intercept_row = matmul(inverse(1, :), transpose(basis)) * (w / largest)
     do j = 2, degree + 1
       coefficients(j) = coefficients(j) / scale**(j - 1)
     end do

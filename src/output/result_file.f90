@@ -434,7 +434,6 @@ contains
     call write_replicated_dataset(ctx, group, 'coefficient_standard_error', c%coefficient_standard_error, err)
     call write_replicated_dataset(ctx, group, 'coefficients_linear_fit', c%coefficient_linear, err)
     call write_replicated_dataset(ctx, group, 'coefficients_without_coarsest', c%coefficient_reduced, err)
-    call write_replicated_dataset(ctx, group, 'coefficients_cubic_fit', c%coefficient_cubic, err)
     call write_replicated_dataset(ctx, group, 'mobility_level_excess', transpose(c%mobility_level_excess), err)
     call write_replicated_dataset(ctx, group, 'coefficient_level_excess', c%coefficient_level_excess, err)
     call write_attribute(group, 'control_offsets', c%control_offsets, err)
