@@ -48,7 +48,7 @@ contains
       buffer = buffer(1:len_trim(buffer) - 1)   ! no trailing point
     else
       write (buffer, '(f0.2)') value
-      if (buffer(1:1) == '.') buffer = '0' // buffer
+      if (buffer(1:1) == '.') buffer = '0' // buffer(:len(buffer) - 1)   ! the blank at its end makes room
       if (buffer(1:2) == '-.') buffer = '-0' // buffer(2:)
     end if
     text = trim(adjustl(buffer))
@@ -85,7 +85,7 @@ contains
     read (buffer(e_at + 1:), *) exponent
     if (exponent < -4 .or. exponent >= d) then
       write (exponent_text, '(i0)') abs(exponent)
-      if (abs(exponent) < 10) exponent_text = '0' // exponent_text   ! two digits at least, as C
+      if (abs(exponent) < 10) exponent_text = '0' // exponent_text(:len(exponent_text) - 1)   ! two digits at least, as C
       text = without_trailing_zeros(trim(adjustl(buffer(1:e_at - 1)))) // 'e' // either(exponent < 0, '-', '+') // &
              trim(adjustl(exponent_text))
     else

@@ -160,7 +160,7 @@ contains
     character(len=32) :: buffer
     if (bytes / gib < 1.0e5_dp) then
       write (buffer, '(f0.2)') bytes / gib
-      if (buffer(1:1) == '.') buffer = '0' // buffer
+      if (buffer(1:1) == '.') buffer = '0' // buffer(:len(buffer) - 1)   ! the blank at its end makes room
     else
       write (buffer, '(es9.2)') bytes / gib
     end if
@@ -180,7 +180,7 @@ contains
     else
       write (buffer, '(es9.2, a)') seconds / 3600, ' h'
     end if
-    if (buffer(1:1) == '.') buffer = '0' // buffer
+    if (buffer(1:1) == '.') buffer = '0' // buffer(:len(buffer) - 1)   ! the blank at its end makes room
     text = trim(adjustl(buffer))
   end function seconds_text
 end module beadmob_job_planning

@@ -190,7 +190,7 @@ contains
     real(dp), intent(in), optional :: offset(3)   ! of the lattice against the body, output frame
     real(dp), allocatable :: buffer(:, :)
     real(dp) :: gap, dist2, theta_star, off_gap, r2_max, rho, shift(3), x, y, z
-    real(dp) :: samples(2, 0:ellipse_samples - 1)
+    real(dp), allocatable :: samples(:, :)   ! 115 kB: on the heap, not in static storage
     integer :: n_x, n_y, n_z, i, j, k, count, widen, m
 
     allocate (centres(3, 0))
@@ -223,6 +223,7 @@ contains
     call reserve_sites([2 * n_x + 1, 2 * n_y + 1, 2 * n_z + 1] + 2 * widen, 'open_ring', buffer, err)
     if (err%failed) return
     ! The ellipse's sample points, once for all lattice points (the same numbers as evaluated per point).
+    allocate (samples(2, 0:ellipse_samples - 1))
     do m = 0, ellipse_samples - 1
       samples(:, m) = [semi_major * cos(m * (2.0_dp * pi / ellipse_samples)), &
                        semi_minor * sin(m * (2.0_dp * pi / ellipse_samples))]
