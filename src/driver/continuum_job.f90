@@ -1097,7 +1097,7 @@ contains
     character(len=32) :: buffer
     if (seconds < 10.0_dp) then
       write (buffer, '(f0.2)') seconds
-      if (buffer(1:1) == '.') buffer = '0' // buffer
+      if (buffer(1:1) == '.') buffer = '0' // buffer(:len(buffer) - 1)   ! the blank at its end makes room
     else
       write (buffer, '(i0)') nint(seconds)
     end if
