@@ -108,9 +108,7 @@ def inflated_extrapolation(h, mean, standard_error):
     by the reduced chi^2 when above 1."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
-    median = np.sort(standard_error)[(n + 1) // 2 - 1]
-    sigma = np.maximum.reduce([standard_error, np.full(n, bar_module.STANDARD_ERROR_FLOOR * median),
-                               1e-9 * np.abs(mean), np.full(n, np.sqrt(np.finfo(float).tiny))])
+    sigma = bar_module.floored_standard_error(standard_error, mean)
     weights = 1.0 / sigma**2
     polynomial = bar_module._weighted_polynomial
     coefficients, variance, chi2 = polynomial(h, mean, weights, 2)
@@ -146,13 +144,10 @@ def cubic_beyond_noise(h, mean, standard_error):
     fit = beadmob_extrapolate(h, mean, standard_error)
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
-    median = np.sort(standard_error)[(n + 1) // 2 - 1]
-    sigma = np.maximum.reduce([standard_error, np.full(n, bar_module.STANDARD_ERROR_FLOOR * median),
-                               1e-9 * np.abs(mean), np.full(n, np.sqrt(np.finfo(float).tiny))])
+    sigma = bar_module.floored_standard_error(standard_error, mean)
     weights = 1.0 / (sigma**2 + fit.excess_deviation**2)
     full_row = intercept_row(h, weights, 2)
     order = np.argsort(h, kind="stable")
-    others = []
     if n > 3:
         reduced = np.zeros(n)
         reduced[order[:-1]] = intercept_row(h[order[:-1]], weights[order[:-1]], 2)

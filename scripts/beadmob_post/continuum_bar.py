@@ -143,6 +143,16 @@ def excess_variance(h: np.ndarray, mean: np.ndarray, level_variance: np.ndarray)
     return upper
 
 
+def floored_standard_error(standard_error: np.ndarray, mean: np.ndarray) -> np.ndarray:
+    """continuum_fit.f90's floored_variance, as standard errors: max(se, STANDARD_ERROR_FLOOR times the
+    median level's se, 1e-9 |mean|, sqrt(tiny))."""
+    standard_error, mean = np.asarray(standard_error, dtype=float), np.asarray(mean, dtype=float)
+    n = len(standard_error)
+    median = np.sort(standard_error)[(n + 1) // 2 - 1]
+    return np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
+                              np.full(n, np.sqrt(np.finfo(float).tiny))])
+
+
 def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
     """continuum_fit.f90's extrapolate_to_zero: level variances s_k^2 = max(se, a fifth of the median
     level's se, 1e-9 |mean|)^2, weights 1 / (s_k^2 + tau^2) with the random-effects excess tau^2
@@ -150,9 +160,7 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
     quadratic without the coarsest."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
-    median = np.sort(standard_error)[(n + 1) // 2 - 1]
-    sigma = np.maximum.reduce([standard_error, np.full(n, STANDARD_ERROR_FLOOR * median), 1e-9 * np.abs(mean),
-                               np.full(n, np.sqrt(np.finfo(float).tiny))])
+    sigma = floored_standard_error(standard_error, mean)
     excess = excess_variance(h, mean, sigma**2)
     plain_chi2 = _weighted_polynomial(h, mean, 1.0 / sigma**2, 2)[2] / (n - 3) if n > 3 else float("nan")
     weights = 1.0 / (sigma**2 + excess)
