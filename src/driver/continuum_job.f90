@@ -25,6 +25,7 @@ module beadmob_continuum_job
   use beadmob_shape_catalog, only: build_bead_model, read_mesh_once, triangle_mesh_t
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame
+  use beadmob_body_extent, only: continuous_extent, vertex_extent
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
@@ -257,8 +258,8 @@ contains
     call compute_body_frame(model%centres, frame, err)
     call agree_on_error(ctx, err)
     if (err%failed) return
-    result%reference_length = config%shape%reference_length
-    if (.not. is_set(result%reference_length)) result%reference_length = frame%extent(1) * diameters(size(diameters))
+    call coefficient_length(ctx, config, mesh, frame, diameters(size(diameters)), result%reference_length, &
+                            result%reference_length_from)
     if (fills) then
       allocate (corrected(0))
       do
@@ -563,6 +564,41 @@ contains
     call agree_on_error(ctx, err)
     if (present(used)) used = c
   end subroutine build_at
+
+  !> Collective. L of the continuum coefficients (shape units) and where it came from: the
+  !> input's reference_length; else the body's own extent along the body x axis (`frame`, of the
+  !> finest level's reference model), exact for a mesh (its vertices, rank 0's) and the simple
+  !> shapes (body_extent.f90); else, for the paper's shapes, that reference model's outer size,
+  !> which lies up to a bead diameter d beyond the body's and is the paper's L at its d.
+  subroutine coefficient_length(ctx, config, mesh, frame, d, length, source)
+    type(run_context_t), intent(in) :: ctx
+    type(run_config_t), intent(in) :: config
+    type(triangle_mesh_t), intent(in) :: mesh
+    type(body_frame_t), intent(in) :: frame
+    real(dp), intent(in) :: d
+    real(dp), intent(out) :: length
+    character(len=:), allocatable, intent(out) :: source
+    logical :: known
+    integer :: ierr
+    if (is_set(config%shape%reference_length)) then
+      length = config%shape%reference_length
+      source = 'input'
+      return
+    end if
+    if (config%shape%name == 'mesh') then
+      if (ctx%rank == 0) length = vertex_extent(mesh%vertices, frame%axes(:, 1))
+      call MPI_Bcast(length, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
+      known = .true.
+    else
+      call continuous_extent(config%shape, frame%axes(:, 1), length, known)
+    end if
+    if (known) then
+      source = 'body'
+    else
+      length = frame%extent(1) * d
+      source = 'finest level'
+    end if
+  end subroutine coefficient_length
 
   !> The lattice axes of offset index j at bead diameter d (columns, input frame): the base axes
   !> tilted by the turn of turn_index with turns, else the input's own.

@@ -27,6 +27,9 @@ module beadmob_continuum_fit
     !> How the ladder was chosen (time_budget, finest_bead_diameter, checkpoint) and the pilot's
     !> factor on the dry run's estimates (1 without a pilot).
     character(len=:), allocatable :: chosen_by
+    !> Where reference_length came from: 'input', 'body' (the body's own extent along the body x
+    !> axis) or 'finest level' (the finest level's bead model's outer size).
+    character(len=:), allocatable :: reference_length_from
     real(dp) :: calibration = 1.0_dp
     !> Levels the budget's ladder moved coarser once its solved levels showed the rest would overrun.
     integer :: moved_coarser = 0

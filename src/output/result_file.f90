@@ -398,6 +398,7 @@ contains
     call write_attribute(group, 'estimate_calibration', c%calibration, err)
     call write_attribute(group, 'ladder_moved_coarser', c%moved_coarser, err)
     call write_attribute(group, 'reference_length', c%reference_length, err)
+    call write_attribute(group, 'reference_length_from', c%reference_length_from, err)
     call write_attribute(group, 'volume', c%volume, err)
     call write_attribute(group, 'volume_standard_error', c%volume_error, err)
     call write_attribute(group, 'all_converged', merge(1, 0, all(c%sample_converged == 1)), err)

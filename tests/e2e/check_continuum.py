@@ -6,7 +6,8 @@ src/driver/continuum_job.f90, docs/theory.md T18), end to end.
    the continuum translational and rotational mobility must hold the exact sphere's
    (Stokes: 1 / (6 pi a), 1 / (8 pi a^3)) within the job's own error bar; the ladder's bead
    diameters are a factor 2**(1/3) apart; every sample is kept (levels x offsets), every solve
-   converged; the continuum friction is the inverse of the continuum mobility; the volume from the
+   converged; the coefficients' length L is the sphere's diameter and mu11 = mu22 = mu33 hold
+   Stokes' 1/3 within their bars; the continuum friction is the inverse of the continuum mobility; the volume from the
    moment fills is 4 pi / 3 within its standard error (4x); the continuum coefficients are numpy's
    weighted quadratic fit of the level means (beadmob_post.continuum.quadratic_fit), and their
    recorded excess scatter tau is scipy's root of the random-effects condition (level_excess).
@@ -100,6 +101,12 @@ def main(beadmob, mpiexec, ranks, workdir):
     deviation = np.abs(np.diag(c["mobility"]) - exact)
     check(np.all(deviation <= np.diag(c["mobility_error"])),
           f"sphere: |continuum - Stokes| {deviation / exact} within the error bar {np.diag(c['mobility_error']) / exact}")
+    # The coefficients' length is the body's, 2 a (not a bead model's outer size, up to d more), so
+    # mu11 = pi eta L mu_tt (paper, eq. "matrices") is Stokes' pi 2 a / (6 pi a) = 1/3 exactly.
+    check(c["reference_length"] == 2.0 and c["reference_length_from"].decode() == "body",
+          f"L is the sphere's diameter 2 ({c['reference_length']}, from {c['reference_length_from']})")
+    check(np.all(np.abs(c["coefficients"][:3] - 1 / 3) <= c["coefficient_error"][:3]),
+          f"sphere: mu11 mu22 mu33 {c['coefficients'][:3]} hold Stokes' 1/3 within {c['coefficient_error'][:3]}")
     check(np.all(np.diag(c["mobility_error"]) / exact < [0.05] * 3 + [0.15] * 3),
           "sphere: the error bar is of the ladder's size (< 5 % translation, 15 % rotation at d >= 0.16)")
     ratios = c["bead_diameters"][:-1] / c["bead_diameters"][1:]

@@ -34,7 +34,8 @@ every entry of its mobility is generic.
    are flow jobs, and the sample's grand resistance in the kept checkpoint is the ordinary run's
    turned back by diag(Q, Q, D(Q)) (D: the strain modes' rotation, docs/theory.md T19, computed
    here from the modes' definition) within the same bounds; the turned job's continuum mobility
-   agrees with the aligned job's within the two bars."""
+   agrees with the aligned job's within the two bars. Both jobs of 2. take the mesh's own extent
+   along their body x axis (numpy, from the vertices) as the coefficients' length L."""
 import re
 import subprocess
 import sys
@@ -276,6 +277,15 @@ def main(beadmob, mpiexec, ranks, workdir):
         with h5py.File(workdir / f"{name}.h5", "r") as f:
             c = f["continuum"]
             results[name] = (c["mobility"][()], c["mobility_error"][()])
+            # L of the coefficients: the mesh's own extent along the body x axis (its vertices,
+            # numpy here), not the finest bead model's outer size (up to d more).
+            x_axis = f["geometry/body_axes"][()][0]
+            triangles = body if name == "made" else body @ turn.T + SHIFT
+            projection = triangles.reshape(-1, 3) @ x_axis
+            extent = projection.max() - projection.min()
+            check(abs(c.attrs["reference_length"] - extent) <= 1e-12 * extent
+                  and c.attrs["reference_length_from"].decode() == "body",
+                  f"{name}: L {c.attrs['reference_length']} is the mesh's extent along the body x axis {extent}")
     if results:
         turned_within_bars(turn, results)
         turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, body + SHIFT, results["made"])
