@@ -1465,6 +1465,9 @@ contains
       (count(c%sample_level == k), k = 1, size(c%bead_diameters))
     write (*, '(a, es12.5, a, es9.2, a)') '  volume ', c%volume, ' (+-', c%volume_error, '), equivalent ellipsoid'
     write (*, '(4x, 3es12.4)') c%semi_axes
+    write (*, '(a, es12.5, a)') '  coefficients with L = ', c%reference_length, ' (' // &
+      either(c%reference_length_from == 'finest level', 'the finest bead model''s size', &
+             either(c%reference_length_from == 'body', 'the body''s extent', 'reference_length')) // ' along body x)'
     write (*, '(a)') '  level  bead diameter     mu11      mu22      mu33      mu42      mu51'
     do k = 1, size(c%bead_diameters)
       write (*, '(i7, es15.4, 5f10.5)') k, c%bead_diameters(k), c%level_coefficients(:, k)
