@@ -631,8 +631,10 @@ def run_continuum(arguments, out: TextIO) -> int:
         _write_json(out, {"bead_diameters": result.bead_diameters, "level_coefficients": result.level_coefficients,
                           "level_coefficient_error": result.level_coefficient_error,
                           "coefficients": result.coefficients, "coefficient_error": result.coefficient_error,
-                          "reference_length": result.reference_length, "volume": result.volume})
+                          "reference_length": result.reference_length,
+                          "reference_length_from": result.reference_length_from, "volume": result.volume})
     else:
+        out.write(f"coefficients with L = {result.reference_length:.6g} ({result.reference_length_from})\n")
         out.write("level  bead diameter   " + "  ".join(f"{name:>9}" for name in COEFFICIENT_NAMES) + "\n")
         for k, d in enumerate(result.bead_diameters):
             out.write(f"{k + 1:5d}  {d:13.5g}   " + "  ".join(f"{v:9.5f}" for v in result.level_coefficients[k]) + "\n")

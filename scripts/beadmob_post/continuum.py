@@ -29,6 +29,9 @@ class ContinuumResult:
     mobility_error: np.ndarray          # (6, 6)
     reference_length: float
     volume: float
+    #: Where reference_length came from: "input", "body" (the body's own extent along body x) or
+    #: "finest level" (the finest bead model's outer size: every file written before 2026-11-29).
+    reference_length_from: str = "finest level"
 
 
 def load_continuum(path: str | Path) -> ContinuumResult:
@@ -55,7 +58,12 @@ def load_continuum(path: str | Path) -> ContinuumResult:
             coefficients=np.asarray(c["coefficients"][()]),
             coefficient_error=np.asarray(c["coefficient_error"][()]),
             mobility=np.asarray(c["mobility"][()]), mobility_error=np.asarray(c["mobility_error"][()]),
-            reference_length=float(c.attrs["reference_length"]), volume=float(c.attrs["volume"]))
+            reference_length=float(c.attrs["reference_length"]), volume=float(c.attrs["volume"]),
+            reference_length_from=_text(c.attrs.get("reference_length_from", b"finest level")))
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def _floored_errors(mean: np.ndarray, standard_error: np.ndarray) -> np.ndarray:

@@ -60,6 +60,15 @@ def test_command_prints_the_file_values_and_draws(tmp_path, capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["coefficients"] == pytest.approx(list(C0 + 1e-6))
     assert data["reference_length"] == 21.0
+    assert data["reference_length_from"] == "finest level"   # a file from before the attribute
+
+
+def test_command_names_where_the_length_came_from(tmp_path, capsys):
+    path = write_continuum(tmp_path / "c.h5")
+    with h5py.File(path, "a") as f:
+        f["continuum"].attrs["reference_length_from"] = "body"
+    assert main(["continuum", str(path)]) == 0
+    assert "coefficients with L = 21 (body)" in capsys.readouterr().out
 
 
 def test_file_without_the_group_is_refused(tmp_path, capsys):
