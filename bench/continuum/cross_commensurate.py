@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""cross_commensurate.py --exe BEADMOB --turned JOB.h5 [--aligned JOB.h5] [--k 2 3 ...] [--workdir DIR] --out FILE.md
+"""cross_commensurate.py --exe BEADMOB --turned JOB.h5 [--aligned JOB.h5] [--k 2 3 ...] [--workdir DIR] [--reuse] --out FILE.md
 
 A reference for the 3-D cross of nonconvex.py by another route than the continuum job's, to judge
 its error bars (the cross has no exact mobility). The cross is a union of 104 voxels of side 0.3;
@@ -40,9 +40,15 @@ def job_text(k):
             "&hydrodynamics krylov_rtol = 1e-5 /\n"), d
 
 
-def solve(exe, workdir, k):
+def solve(exe, workdir, k, reuse):
+    """Level k's ordinary run (or, with reuse, its result kept in workdir by an earlier call)."""
     text, d = job_text(k)
-    result, wall = run(exe, text, workdir, name=f"k{k}")
+    result, walls = workdir / f"k{k}.h5", workdir / f"k{k}.wall"
+    if reuse and result.exists() and walls.exists() and (workdir / f"k{k}.nml").read_text().endswith(text):
+        wall = float(walls.read_text())
+    else:
+        result, wall = run(exe, text, workdir, name=f"k{k}")
+        walls.write_text(f"{wall}\n")
     with h5py.File(result, "r") as f:
         h = f["hydrodynamics"]
         mobility = h["mobility"][()]
@@ -89,6 +95,7 @@ def main():
     parser.add_argument("--aligned", type=Path, help="a continuum job's result of the cross (aligned lattices)")
     parser.add_argument("--workdir", type=Path, default=Path("cross_commensurate_runs"))
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--reuse", action="store_true", help="read the levels whose results the workdir keeps")
     args = parser.parse_args()
     args.workdir.mkdir(parents=True, exist_ok=True)
     vertices, faces = cross()
@@ -96,7 +103,7 @@ def main():
     version = subprocess.run([str(args.exe), "--version"], capture_output=True, text=True).stdout.strip()
     rows = []
     for k in args.k:
-        rows.append(solve(args.exe, args.workdir, k))
+        rows.append(solve(args.exe, args.workdir, k, args.reuse))
         print(f"k = {k}: {rows[-1]['beads']} beads, {rows[-1]['wall']:.1f} s, t = {rows[-1]['t']:.7f}, "
               f"r = {rows[-1]['r']:.7f}", flush=True)
 
