@@ -153,6 +153,8 @@ def main(beadmob, mpiexec, ranks, workdir):
     mu, bar = cone["coefficients"], cone["coefficient_error"]
     check(abs(mu[0] - mu[1]) <= bar[0] + bar[1] and mu[2] > mu[0] and mu[3] > 0 > mu[4],
           f"cone: the paper's frame and pattern (mu {mu}, +- {bar})")
+    check(cone["reference_length"] == 2.1 and cone["reference_length_from"].decode() == "input",
+          f"cone: L is the input's reference_length 2.1 ({cone['reference_length']}, {cone['reference_length_from']})")
 
     # 2. Stopped after three samples (-stop_after_solves counts a continuum job's samples: a stop
     #    at a known point, where a kill would race the job), then resumed.
