@@ -24,8 +24,8 @@ module beadmob_continuum_job
   use beadmob_vector_algebra, only: cross
   use beadmob_shape_catalog, only: build_bead_model, read_mesh_once, triangle_mesh_t
   use beadmob_geometry_checks, only: check_bead_model
-  use beadmob_body_frame, only: body_frame_t, compute_body_frame
-  use beadmob_body_extent, only: continuous_extent, vertex_extent
+  use beadmob_body_frame, only: body_frame_t, compute_body_frame, spread_along
+  use beadmob_body_extent, only: continuous_extent
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
@@ -586,7 +586,7 @@ contains
       return
     end if
     if (config%shape%name == 'mesh') then
-      if (ctx%rank == 0) length = vertex_extent(mesh%vertices, frame%axes(:, 1))
+      if (ctx%rank == 0) length = spread_along(mesh%vertices, frame%axes(:, 1))
       call MPI_Bcast(length, 1, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       known = .true.
     else

@@ -8,15 +8,16 @@ module beadmob_body_extent
   use beadmob_input_config, only: shape_config_t, is_set
   implicit none
   private
-  public :: continuous_extent, vertex_extent
+  public :: continuous_extent
 
 contains
 
   !> The extent of shape c's body along the unit vector `axis` (in the unit of c's lengths), as
   !> the sum of its support function h(e) + h(-e) in closed form, and whether the shape has one:
   !> the sphere, spheroid, box by box_size, cylinder and torus (simple_shapes.f90: each centred at
-  !> the origin, its bead centres the lattice points inside it). A mesh's is vertex_extent; the
-  !> paper's shapes and bead files have none here (known = .false.).
+  !> the origin, its bead centres the lattice points inside it). A mesh's is its vertices' spread
+  !> (body_frame.f90's spread_along); the paper's shapes and bead files have none here
+  !> (known = .false.).
   subroutine continuous_extent(c, axis, extent, known)
     type(shape_config_t), intent(in) :: c
     real(dp), intent(in) :: axis(3)
@@ -46,13 +47,4 @@ contains
       known = .false.
     end select
   end subroutine continuous_extent
-
-  !> The extent of a closed mesh along the unit vector `axis`: its vertices' (a polyhedron's
-  !> extreme points are vertices).
-  pure real(dp) function vertex_extent(vertices, axis)
-    real(dp), intent(in) :: vertices(:, :), axis(3)
-    real(dp) :: projection(size(vertices, 2))
-    projection = matmul(axis, vertices)
-    vertex_extent = maxval(projection) - minval(projection)
-  end function vertex_extent
 end module beadmob_body_extent

@@ -10,7 +10,7 @@ module beadmob_body_frame
   use beadmob_spatial_index, only: spatial_index_t, build_spatial_index, beads_within
   implicit none
   private
-  public :: body_frame_t, compute_body_frame, is_mirror_symmetric, mirror_tolerance
+  public :: body_frame_t, compute_body_frame, is_mirror_symmetric, mirror_tolerance, spread_along
 
   !> A reflected bead centre must land within this distance (in d) of a bead.
   real(dp), parameter :: mirror_tolerance = 1.0e-6_dp
@@ -108,17 +108,26 @@ contains
     is_mirror_symmetric = .true.
   end function is_mirror_symmetric
 
+  !> A bead model's outer size along the unit vector axis (d): its centres' spread plus one bead.
   pure real(dp) function extent_along(centres, axis)
     real(dp), intent(in) :: centres(:, :), axis(3)
+    extent_along = spread_along(centres, axis) + 1.0_dp
+  end function extent_along
+
+  !> The spread of the points' projections on the unit vector axis (max - min): of bead centres,
+  !> or of a closed mesh's vertices, which is the mesh's extent (a polyhedron's extreme points
+  !> are vertices).
+  pure real(dp) function spread_along(points, axis)
+    real(dp), intent(in) :: points(:, :), axis(3)
     real(dp) :: projection, low, high
     integer(i8) :: i
     low = huge(1.0_dp)
     high = -huge(1.0_dp)
-    do i = 1, size(centres, 2, kind=i8)
-      projection = dot_product(axis, centres(:, i))
+    do i = 1, size(points, 2, kind=i8)
+      projection = dot_product(axis, points(:, i))
       low = min(low, projection)
       high = max(high, projection)
     end do
-    extent_along = high - low + 1.0_dp
-  end function extent_along
+    spread_along = high - low
+  end function spread_along
 end module beadmob_body_frame

@@ -1,4 +1,4 @@
-!> Tests src/geometry/body_extent.f90. CTest: test_body_extent_np1 and test_body_extent_np2.
+!> Tests src/geometry/body_extent.f90 (and body_frame.f90's spread_along, a mesh's extent). CTest: test_body_extent_np1 and test_body_extent_np2.
 !> The closed-form extents (support functions) of the spheroid, the box by box_size, the
 !> cylinder and the torus along random unit axes against a different method: the spread of the
 !> projections of their surfaces sampled on a parametric grid of n x n points. The sample's spread
@@ -10,7 +10,8 @@ program test_body_extent
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_input_config, only: shape_config_t
-  use beadmob_body_extent, only: continuous_extent, vertex_extent
+  use beadmob_body_extent, only: continuous_extent
+  use beadmob_body_frame, only: spread_along
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp)
   integer, parameter :: n = 360, n_axes = 12
@@ -62,10 +63,10 @@ program test_body_extent
   do i = 1, 8
     cube(:, i) = [real(mod(i - 1, 2), dp), real(mod((i - 1) / 2, 2), dp), real((i - 1) / 4, dp)] + 1000.0_dp
   end do
-  call check_close(suite, vertex_extent(cube, [1.0_dp, 1.0_dp, 1.0_dp] / sqrt(3.0_dp)), sqrt(3.0_dp), &
-                   1e-12_dp, 'vertex_extent: a cube far off, along its diagonal')
-  call check_close(suite, vertex_extent(cube, [0.0_dp, 1.0_dp, 0.0_dp]), 1.0_dp, 1e-12_dp, &
-                   'vertex_extent: a cube far off, along an edge')
+  call check_close(suite, spread_along(cube, [1.0_dp, 1.0_dp, 1.0_dp] / sqrt(3.0_dp)), sqrt(3.0_dp), &
+                   1e-12_dp, 'spread_along: a cube far off, along its diagonal')
+  call check_close(suite, spread_along(cube, [0.0_dp, 1.0_dp, 0.0_dp]), 1.0_dp, 1e-12_dp, &
+                   'spread_along: a cube far off, along an edge')
   call finish_tests(suite)
 
 contains
