@@ -34,6 +34,10 @@ class ContinuumSamples:
     #: a control sample (its sample_mobility NaN), and every sample's order L - 1 corrected mobility
     sample_full: np.ndarray | None = None              # (S,)
     sample_control_mobility: np.ndarray | None = None  # (S, 6, 6)
+    #: files since the moment control (/continuum moment_control = 1): every sample's bead moments
+    #: (S, 13) and the body's (13), the control variates of each level's mean (moment_control_shift)
+    sample_moments: np.ndarray | None = None
+    body_moments: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -80,7 +84,11 @@ def read_samples(path: str | Path) -> ContinuumSamples:
             mobility=np.asarray(c["mobility"][()], dtype=float).T,
             mobility_error=np.asarray(c["mobility_error"][()], dtype=float).T,
             mobility_level_excess=np.asarray(c["mobility_level_excess"][()], dtype=float).T
-            if "mobility_level_excess" in c else None)
+            if "mobility_level_excess" in c else None,
+            sample_moments=np.asarray(c["sample_moments"][()], dtype=float).reshape(len(levels), 13)
+            if int(c.attrs.get("moment_control", 0)) else None,
+            body_moments=np.asarray(c["body_moments"][()], dtype=float).reshape(13)
+            if int(c.attrs.get("moment_control", 0)) else None)
 
 
 def level_means(values: np.ndarray, sample_level: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -113,6 +121,76 @@ def controlled_level_means(values: np.ndarray, controls: np.ndarray, full: np.nd
         variance = np.var(difference, ddof=1) / n + max(np.var(x_all, ddof=1) + 2 * covariance, 0.0) / m
         error[k] = np.sqrt(variance)
     return mean, error
+
+
+#: moment_control.f90's constants: the ridge parameters tried (times the mean diagonal of the
+#: standardised features' Gram matrix), and the samples needed beyond the levels per feature.
+RIDGE_GRID = np.concatenate([[0.0], 10.0 ** (-6.0 + 0.25 * np.arange(33))])
+SAMPLES_PER_FEATURE = 3
+
+
+def moment_features(moments: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """moment_control.f90's features: volume, first (3) and second (6 distinct) moments of each
+    sample's beads, relative to the body's volume V and its radius of gyration r (V, V r, V r^2),
+    and the same of the body; (S, 10) and (10,)."""
+    both = np.vstack([np.atleast_2d(moments), body])
+    volume = body[0]
+    second = body[4:13].reshape(3, 3)
+    gyration2 = np.trace(second) / volume / 3.0
+    gyration = np.sqrt(gyration2)
+    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    columns = [both[:, 0] / volume] + [both[:, 1 + i] / (volume * gyration) for i in range(3)] + \
+              [both[:, 4 + i + 3 * j] / (volume * gyration2) for i, j in pairs]
+    table = np.column_stack(columns)
+    return table[:-1], table[-1]
+
+
+def moment_control_shift(target: np.ndarray, sample_level: np.ndarray, features: np.ndarray,
+                         body_features: np.ndarray) -> tuple[np.ndarray, float]:
+    """moment_control.f90's moment_control_shift: each sample's shift (to subtract from its value and
+    control) and the factor on the level means' variances. The target's deviations from their level
+    means, relative to them, are regressed (ridge, pooled over the levels) on the features'
+    deviations from theirs; the ridge parameter, or none, by the smallest leave-one-out error."""
+    target, features = np.asarray(target, dtype=float), np.asarray(features, dtype=float)
+    s, p = features.shape
+    levels = np.unique(sample_level)
+    if s - len(levels) < SAMPLES_PER_FEATURE * p:
+        return np.zeros(s), 1.0
+    centred, relative, scale = features.copy(), target.copy(), np.empty(s)
+    for k in levels:
+        chosen = sample_level == k
+        centred[chosen] -= features[chosen].mean(axis=0)
+        scale[chosen] = target[chosen].mean()
+        relative[chosen] = (target[chosen] - scale[chosen]) / scale[chosen]
+    spread = np.sqrt(np.sum(centred**2, axis=0) / s)
+    used = spread > 1e-14 * np.maximum(np.abs(body_features), 1.0)
+    if not np.any(used) or not np.all(np.isfinite(relative)):
+        return np.zeros(s), 1.0
+    a = centred[:, used] / spread[used]
+    gram = a.T @ a
+    unit = np.trace(gram) / np.count_nonzero(used)
+    best, best_error = None, float(np.sum(relative**2))
+    for ridge in RIDGE_GRID:
+        matrix = gram + ridge * unit * np.eye(len(gram))
+        try:   # beadmob inverts by Cholesky factors (dpotrf, dpotri) and skips what has none
+            np.linalg.cholesky(matrix)
+        except np.linalg.LinAlgError:
+            continue
+        inverse = np.linalg.inv(matrix)
+        leverage = np.einsum("si,ij,sj->s", a, inverse, a)
+        if np.any(1.0 - leverage < 1e-8):
+            continue
+        residual = relative - a @ (inverse @ (a.T @ relative))
+        error = float(np.sum((residual / (1.0 - leverage)) ** 2))
+        if error < best_error:
+            best, best_error = (inverse, float(np.sum(leverage))), error
+    if best is None:
+        return np.zeros(s), 1.0
+    inverse, parameters = best
+    beta = (inverse @ (a.T @ relative)) / spread[used]
+    shift = scale * ((features[:, used] - body_features[used]) @ beta)
+    dof = s - len(levels)
+    return shift, dof / max(dof - parameters, 1.0)
 
 
 def _weighted_polynomial(x, y, w, degree):
@@ -182,13 +260,23 @@ def combination_level_means(samples: ContinuumSamples, weights: np.ndarray) -> t
     them: the plain mean over the level's samples, or with control samples the controlled mean."""
     weights = np.asarray(weights, dtype=float)
     levels = len(samples.bead_diameters)
-    if samples.sample_full is None:
-        values = np.einsum("sjk,jk->s", samples.sample_mobility, weights)
-        return level_means(values, samples.sample_level, levels)
     full = samples.sample_full
-    values = np.einsum("sjk,jk->s", np.where(full[:, None, None] == 1, samples.sample_mobility, 0.0), weights)
-    controls = np.einsum("sjk,jk->s", samples.sample_control_mobility, weights)
-    return controlled_level_means(values, controls, full, samples.sample_level, levels)
+    if full is None:
+        values = np.einsum("sjk,jk->s", samples.sample_mobility, weights)
+        controls = values
+    else:
+        values = np.einsum("sjk,jk->s", np.where(full[:, None, None] == 1, samples.sample_mobility, 0.0), weights)
+        controls = np.einsum("sjk,jk->s", samples.sample_control_mobility, weights)
+    variance_factor = 1.0
+    if samples.sample_moments is not None:
+        shift, variance_factor = moment_control_shift(controls, samples.sample_level,
+                                                      *moment_features(samples.sample_moments, samples.body_moments))
+        values, controls = values - shift, controls - shift
+    if full is None:
+        mean, error = level_means(values, samples.sample_level, levels)
+    else:
+        mean, error = controlled_level_means(values, controls, full, samples.sample_level, levels)
+    return mean, error * np.sqrt(variance_factor)
 
 
 def combination_bar(samples: ContinuumSamples, weights: np.ndarray, power: int) -> tuple[float, float, Extrapolation]:
@@ -233,5 +321,6 @@ def replay_discrepancy(samples: ContinuumSamples) -> float:
     return worst
 
 
-__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "controlled_level_means", "combination_level_means", "excess_variance", "extrapolate",
+__all__ = ["ContinuumSamples", "Extrapolation", "read_samples", "level_means", "controlled_level_means", "combination_level_means",
+           "moment_features", "moment_control_shift", "excess_variance", "extrapolate",
            "combination_bar", "entry_power", "principal_diagonal", "replay_discrepancy"]

@@ -30,6 +30,7 @@ module beadmob_continuum_job
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
+  use beadmob_moment_control, only: moment_features, moment_control_shift, n_moment_features
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
                                    controlled_level_mean
   use beadmob_continuum_fill, only: next_fill_level
@@ -1157,6 +1158,7 @@ contains
     integer :: s, k, q, n, levels, row, column
     integer, allocatable :: members(:), full_members(:)
     logical :: controlled
+    real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features)
 
     n = size(samples)
     levels = size(diameters)
@@ -1246,14 +1248,14 @@ contains
       volume_power(q) = 1 + merge(1, 0, row > 3) + merge(1, 0, column > 3)
     end do
     volume_power(37:41) = [1, 1, 1, 2, 2]
-    do k = 1, levels
-      members = pack([(s, s = 1, n)], result%sample_level == k)
-      full_members = pack(members, samples(members)%full)
-      call means_of_level(result%sample_mobility, result%level_mobility(:, k), result%level_mobility_error(:, k), &
-                          result%sample_control_mobility)
-      call means_of_level(result%sample_coefficients, result%level_coefficients(:, k), &
-                          result%level_coefficient_error(:, k), result%sample_control_coefficients)
-    end do
+    result%moment_control = config%continuum%moment_control
+    features = moment_features(result%sample_moments, result%body_moments)
+    body_features = reshape(moment_features(reshape(result%body_moments, [13, 1]), result%body_moments), &
+                            [n_moment_features])
+    call level_means(result%sample_mobility, result%level_mobility, result%level_mobility_error, &
+                     result%sample_control_mobility)
+    call level_means(result%sample_coefficients, result%level_coefficients, result%level_coefficient_error, &
+                     result%sample_control_coefficients)
     do q = 1, 36
       row = modulo(q - 1, 6) + 1
       column = (q - row) / 6 + 1
@@ -1277,24 +1279,40 @@ contains
 
   contains
 
-    !> Level k's mean of every quantity (rows of values, a column per sample) over `members` and
-    !> its standard error; with control samples the controlled mean (T18: the order L - 1 solves
-    !> `controls` on all members correct the mean over the full ones). The sample_control_*
-    !> arrays are allocated only with control samples, and an unallocated one is not present.
-    subroutine means_of_level(values, mean, error, controls)
+    !> Every level's mean of every quantity (rows of values, a column per sample) and its standard
+    !> error (columns of mean and error: the levels); with control samples the controlled mean (T18:
+    !> the order L - 1 solves `controls` on all of a level's samples correct the mean over its full
+    !> ones), with moment_control the samples' moments as control variates besides (T18, "Moment
+    !> control"). The sample_control_* arrays are allocated only with control samples, and an
+    !> unallocated one is not present.
+    subroutine level_means(values, mean, error, controls)
       real(dp), intent(in) :: values(:, :)
-      real(dp), intent(out) :: mean(:), error(:)
+      real(dp), intent(out) :: mean(:, :), error(:, :)
       real(dp), intent(in), optional :: controls(:, :)
+      real(dp) :: shift(size(values, 2)), factor
       integer :: row
       do row = 1, size(values, 1)
-        if (present(controls)) then
-          call controlled_level_mean(values(row, full_members), controls(row, full_members), controls(row, members), &
-                                     mean(row), error(row))
-        else
-          call level_mean(values(row, members), mean(row), error(row))
+        shift = 0.0_dp
+        factor = 1.0_dp
+        if (result%moment_control .and. present(controls)) then
+          call moment_control_shift(controls(row, :), result%sample_level, features, body_features, shift, factor)
+        else if (result%moment_control) then
+          call moment_control_shift(values(row, :), result%sample_level, features, body_features, shift, factor)
         end if
+        do k = 1, levels
+          members = pack([(s, s = 1, n)], result%sample_level == k)
+          full_members = pack(members, samples(members)%full)
+          if (present(controls)) then
+            call controlled_level_mean(values(row, full_members) - shift(full_members), &
+                                       controls(row, full_members) - shift(full_members), &
+                                       controls(row, members) - shift(members), mean(row, k), error(row, k))
+          else
+            call level_mean(values(row, members) - shift(members), mean(row, k), error(row, k))
+          end if
+          error(row, k) = error(row, k) * sqrt(factor)
+        end do
       end do
-    end subroutine means_of_level
+    end subroutine level_means
 
     !> The flow's response (theory.md T19) extrapolated entry by entry as the mobility's: the
     !> velocity per strain (translation ~ length, rotation ~ length^0) and the stresslet per strain
@@ -1304,14 +1322,10 @@ contains
       real(dp) :: power
       allocate (result%level_velocity_per_strain(nv, levels), result%level_velocity_per_strain_error(nv, levels))
       allocate (result%level_stresslet_per_strain(nt, levels), result%level_stresslet_per_strain_error(nt, levels))
-      do k = 1, levels
-        members = pack([(s, s = 1, n)], result%sample_level == k)
-        full_members = pack(members, samples(members)%full)
-        call means_of_level(result%sample_velocity_per_strain, result%level_velocity_per_strain(:, k), &
-                            result%level_velocity_per_strain_error(:, k), result%sample_control_velocity_per_strain)
-        call means_of_level(result%sample_stresslet_per_strain, result%level_stresslet_per_strain(:, k), &
-                            result%level_stresslet_per_strain_error(:, k), result%sample_control_stresslet_per_strain)
-      end do
+      call level_means(result%sample_velocity_per_strain, result%level_velocity_per_strain, &
+                       result%level_velocity_per_strain_error, result%sample_control_velocity_per_strain)
+      call level_means(result%sample_stresslet_per_strain, result%level_stresslet_per_strain, &
+                       result%level_stresslet_per_strain_error, result%sample_control_stresslet_per_strain)
       do q = 1, nv
         row = modulo(q - 1, 6) + 1
         column = (q - row) / 6 + 1

@@ -66,6 +66,8 @@ module beadmob_continuum_fit
     !> fill_budget bought control samples beyond control_offsets with the rest of the budget (so
     !> levels may hold different numbers of samples: sample_level counts them).
     logical :: filled = .false.
+    !> The level means took the samples' bead moments as control variates (moment_control.f90).
+    logical :: moment_control = .false.
     real(dp), allocatable :: sample_control_friction(:, :), sample_control_mobility(:, :)
     real(dp), allocatable :: sample_control_coefficients(:, :)
     !> Per level (columns): the mean over its offsets and that mean's standard error.

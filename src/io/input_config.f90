@@ -71,6 +71,9 @@ module beadmob_input_config
     !> the rest of the time budget buys more control samples, one at a time on the level where
     !> each narrows the bar most per second (up to 64 samples per level; docs/theory.md T18).
     logical :: fill_budget = .true.
+    !> Each level's mean with the samples' bead moments as control variates (their mean over
+    !> random offsets is the body's; docs/theory.md T18, "Moment control"); .false.: without.
+    logical :: moment_control = .true.
   end type continuum_settings_t
 
   !> The continuum job's samples per level when the input leaves them out: at multipole_order
@@ -160,10 +163,10 @@ contains
     type(error_t), intent(inout) :: err
     real(dp) :: time_budget, finest_bead_diameter, turn_angle
     integer :: levels, offsets, moment_fills, control_offsets, status
-    logical :: turned_lattices, fill_budget
+    logical :: turned_lattices, fill_budget, moment_control
     character(len=512) :: message
     namelist /continuum/ time_budget, levels, offsets, moment_fills, finest_bead_diameter, turned_lattices, &
-                         turn_angle, control_offsets, fill_budget
+                         turn_angle, control_offsets, fill_budget, moment_control
 
     settings%enabled = has_group(lines, 'continuum')
     if (.not. settings%enabled) return
@@ -174,6 +177,7 @@ contains
     finest_bead_diameter = settings%finest_bead_diameter
     turned_lattices = settings%turned_lattices
     fill_budget = settings%fill_budget
+    moment_control = settings%moment_control
     turn_angle = settings%turn_angle
     control_offsets = settings%control_offsets
     read (lines, nml=continuum, iostat=status, iomsg=message)
@@ -202,7 +206,8 @@ contains
     settings = continuum_settings_t(enabled=.true., time_budget=time_budget, levels=levels, offsets=offsets, &
                                     moment_fills=moment_fills, finest_bead_diameter=finest_bead_diameter, &
                                     turned_lattices=turned_lattices, turn_angle=turn_angle, &
-                                    control_offsets=control_offsets, fill_budget=fill_budget)
+                                    control_offsets=control_offsets, fill_budget=fill_budget, &
+                                    moment_control=moment_control)
   end subroutine read_continuum_group
 
   !> The samples per level an input leaves out (default_*_offsets above): control samples

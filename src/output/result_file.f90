@@ -423,6 +423,7 @@ contains
     call write_replicated_dataset(ctx, group, 'sample_mobility', c%sample_mobility, err)
     call write_replicated_dataset(ctx, group, 'sample_coefficients', c%sample_coefficients, err)
     call write_replicated_dataset(ctx, group, 'sample_moments', c%sample_moments, err)
+    call write_attribute(group, 'moment_control', merge(1, 0, c%moment_control), err)
     call write_replicated_dataset(ctx, group, 'level_mobility', c%level_mobility, err)
     call write_replicated_dataset(ctx, group, 'level_mobility_error', c%level_mobility_error, err)
     call write_replicated_dataset(ctx, group, 'level_coefficients', c%level_coefficients, err)

@@ -9,8 +9,12 @@ linear combination of mobility entries.
   root finder), the bar hypot(2 sigma, spread) + volume term.
 - A body seen turned: samples M_s = Q D_s Q^T; the principal diagonal replayed with Q equals the
   replay of the unturned samples D_s entry by entry.
-- A real result file of the test suite (continuum_np2's sphere, when BEADMOB_TEST_OUTPUT_DIR
-  holds it): the replay reproduces the file's 36 error bars and its diagonal.
+- Moment control (docs/theory.md T18): on samples whose deviations from their level's mean are
+  exactly linear in their moment features the shift is numpy's least squares of the relative
+  deviations (the ridge's leave-one-out choice falls on no ridge), and too few samples get none.
+- Real result files of the test suite (continuum_np2's spheres, when BEADMOB_TEST_OUTPUT_DIR
+  holds them; filled.h5 has samples enough for the moment control): the replay reproduces each
+  file's 36 error bars and its diagonal.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import pytest
 
 from beadmob_post.continuum import quadratic_fit
 from beadmob_post.continuum_bar import (combination_bar, controlled_level_means, entry_power, extrapolate, level_means,
-                                        principal_diagonal,
+                                        moment_control_shift, principal_diagonal,
                                         read_samples, replay_discrepancy)
 
 H = 0.3 * 2.0 ** (-np.arange(7) / 3)
@@ -145,8 +149,32 @@ def test_turned_body_replays_its_principal_entries(tmp_path):
         assert bar == pytest.approx(expected_bar, rel=1e-8)
 
 
-def test_real_continuum_file(beadmob_output_dir):
-    path = beadmob_output_dir / "continuum" / "sphere.h5"
+def test_moment_control_on_linear_samples():
+    rng = np.random.default_rng(11)
+    levels = np.repeat([1, 2, 3], 20)
+    features = rng.normal(size=(60, 10))
+    body = rng.normal(size=10)
+    sensitivity = rng.normal(size=10)
+    level_value = np.array([2.0, 1.5, 1.2])[levels - 1]
+    level_features = np.array([features[levels == k].mean(axis=0) for k in (1, 2, 3)])[levels - 1]
+    target = level_value * (1.0 + 0.01 * (features - level_features) @ sensitivity)
+    shift, factor = moment_control_shift(target, levels, features, body)
+    centred, relative = features.copy(), np.empty(60)
+    for k in (1, 2, 3):
+        chosen = levels == k
+        centred[chosen] -= features[chosen].mean(axis=0)
+        relative[chosen] = target[chosen] / target[chosen].mean() - 1.0
+    beta = np.linalg.lstsq(centred, relative, rcond=None)[0]
+    scale = np.array([target[levels == k].mean() for k in (1, 2, 3)])[levels - 1]
+    assert shift == pytest.approx(scale * ((features - body) @ beta), rel=1e-9, abs=1e-12)
+    assert factor == pytest.approx(57 / 47, rel=1e-9)
+    few, factor = moment_control_shift(target[:20], levels[:20], features[:20], body)
+    assert np.all(few == 0.0) and factor == 1.0
+
+
+@pytest.mark.parametrize("name", ["sphere.h5", "controlled.h5", "filled.h5"])
+def test_real_continuum_file(beadmob_output_dir, name):
+    path = beadmob_output_dir / "continuum" / name
     if not path.exists():
         pytest.skip(f"{path} not written (CTest continuum_np2 runs before pytest)")
     assert replay_discrepancy(read_samples(path)) < 1e-8

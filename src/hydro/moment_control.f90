@@ -1,0 +1,139 @@
+!> The samples' bead moments as control variates of a continuum level's mean (docs/theory.md T18,
+!> "Moment control"). Over uniformly random lattice offsets (and turns) the expected sum over the
+!> nodes inside a body of any function, times d^3, is that function's integral over the body: the
+!> mean volume, first and second moments of a level's bead models are the body's, known exactly.
+!> Each sample's deviation of its moments from the body's is therefore a control variate with a
+!> known mean, and regressing the samples' values on it removes the part of the offsets' scatter
+!> that the moments explain, without moving what the level's mean estimates. The equivalent
+!> ellipsoid's correction (continuum_job) already removes what an ellipsoid of those moments would
+!> explain; the regression learns the body's own sensitivities, which serves bodies that are no
+!> ellipsoid (a cross whose arms gain or lose a layer of beads with the offset).
+!>
+!> The regression is pooled over the levels (the sensitivities are the body's, in relative terms),
+!> ridge-regularised over standardised features (turned or elongated bodies make the moments nearly
+!> collinear), its ridge parameter, or no regression, chosen by the smallest leave-one-out error.
+!> scripts/beadmob_post/continuum_bar.py (moment_control_shift) replays it.
+module beadmob_moment_control
+  use beadmob_kinds, only: dp
+  use beadmob_lapack, only: dpotrf, dpotri
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  implicit none
+  private
+  public :: moment_features, moment_control_shift, n_moment_features
+
+  !> Volume, first moments (3), second moments (6 distinct).
+  integer, parameter :: n_moment_features = 10
+  !> A regression needs this many samples beyond the levels per feature (else none).
+  integer, parameter :: samples_per_feature = 3
+  !> The ridge parameters tried: 0 and 10^(-6 + j/4), j = 0..32, times the mean diagonal of the
+  !> standardised features' Gram matrix.
+  integer, parameter :: n_ridge = 34
+
+contains
+
+  !> Features of bead moments (volume, first 3, second 9 column-major: body_moments_t's order):
+  !> volume, first and the six distinct second moments relative to the body's volume V and its
+  !> radius of gyration r (V, V r, V r^2). moments(13, S) -> features(10, S).
+  pure function moment_features(moments, body) result(features)
+    real(dp), intent(in) :: moments(:, :), body(13)
+    real(dp) :: features(n_moment_features, size(moments, 2))
+    integer, parameter :: first_index(6) = [1, 2, 3, 1, 1, 2], second_index(6) = [1, 2, 3, 2, 3, 3]
+    real(dp) :: volume, gyration2
+    integer :: j
+    volume = body(1)
+    gyration2 = (body(5) + body(9) + body(13)) / volume / 3.0_dp
+    features(1, :) = moments(1, :) / volume
+    features(2:4, :) = moments(2:4, :) / (volume * sqrt(gyration2))
+    do j = 1, 6
+      features(4 + j, :) = moments(4 + first_index(j) + 3 * (second_index(j) - 1), :) / (volume * gyration2)
+    end do
+  end function moment_features
+
+  !> Each sample's shift, to subtract from its value (and its control's), and the factor on the
+  !> level means' variances (the degrees of freedom the regression took). target(S): the quantity
+  !> known on every sample (the control, order L - 1, where there are control samples); level(S);
+  !> features(10, S) and the body's (moment_features).
+  pure subroutine moment_control_shift(target, level, features, body_features, shift, variance_factor)
+    real(dp), intent(in) :: target(:), features(:, :), body_features(:)
+    integer, intent(in) :: level(:)
+    real(dp), intent(out) :: shift(size(target)), variance_factor
+    real(dp) :: centred(size(features, 1), size(target)), relative(size(target)), scale(size(target))
+    real(dp) :: spread(size(features, 1)), beta(size(features, 1)), best_inverse(size(features, 1), size(features, 1))
+    real(dp), allocatable :: a(:, :), gram(:, :), inverse(:, :), leverage(:), residual(:)
+    real(dp) :: unit, ridge, loo_error, best_error, parameters, dof
+    logical :: used(size(features, 1)), chosen(size(target)), found
+    integer :: s, p, k, levels, j, i, info, q
+
+    s = size(target)
+    shift = 0.0_dp
+    variance_factor = 1.0_dp
+    centred = 0.0_dp
+    scale = 0.0_dp
+    parameters = 0.0_dp
+    levels = 0
+    do k = minval(level), maxval(level)
+      chosen = level == k
+      if (.not. any(chosen)) cycle
+      levels = levels + 1
+      do i = 1, size(features, 1)
+        centred(i, :) = merge(features(i, :) - sum(features(i, :), mask=chosen) / count(chosen), centred(i, :), chosen)
+      end do
+      scale = merge(sum(target, mask=chosen) / count(chosen), scale, chosen)
+    end do
+    if (s - levels < samples_per_feature * size(features, 1)) return
+    relative = (target - scale) / scale
+    if (.not. all(ieee_is_finite(relative))) return
+    spread = sqrt(sum(centred**2, dim=2) / s)
+    used = spread > 1e-14_dp * max(abs(body_features), 1.0_dp)
+    p = count(used)
+    if (p == 0) return
+    allocate (a(s, p), gram(p, p), inverse(p, p), leverage(s), residual(s))
+    q = 0
+    do i = 1, size(features, 1)
+      if (.not. used(i)) cycle
+      q = q + 1
+      a(:, q) = centred(i, :) / spread(i)
+    end do
+    gram = matmul(transpose(a), a)
+    unit = sum([(gram(i, i), i = 1, p)]) / p
+    best_error = sum(relative**2)   ! no regression
+    found = .false.
+    do j = 1, n_ridge
+      ridge = 0.0_dp
+      if (j > 1) ridge = 10.0_dp**(-6.0_dp + 0.25_dp * (j - 2))
+      inverse = gram
+      do i = 1, p
+        inverse(i, i) = inverse(i, i) + ridge * unit
+      end do
+      call dpotrf('L', p, inverse, p, info)
+      if (info /= 0) cycle
+      call dpotri('L', p, inverse, p, info)
+      if (info /= 0) cycle
+      do i = 1, p   ! dpotri fills the lower triangle
+        inverse(i, i + 1:) = inverse(i + 1:, i)
+      end do
+      leverage = sum(matmul(a, inverse) * a, dim=2)
+      if (any(1.0_dp - leverage < 1e-8_dp)) cycle
+      residual = relative - matmul(a, matmul(inverse, matmul(transpose(a), relative)))
+      loo_error = sum((residual / (1.0_dp - leverage))**2)
+      if (loo_error < best_error) then
+        best_error = loo_error
+        best_inverse(1:p, 1:p) = inverse
+        parameters = sum(leverage)
+        found = .true.
+      end if
+    end do
+    if (.not. found) return
+    beta = 0.0_dp
+    beta(1:p) = matmul(best_inverse(1:p, 1:p), matmul(transpose(a), relative))
+    q = 0
+    do i = 1, size(features, 1)
+      if (.not. used(i)) cycle
+      q = q + 1
+      shift = shift + scale * (features(i, :) - body_features(i)) * beta(q) / spread(i)
+    end do
+    dof = s - levels
+    variance_factor = dof / max(dof - parameters, 1.0_dp)
+  end subroutine moment_control_shift
+
+end module beadmob_moment_control
