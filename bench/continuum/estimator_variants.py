@@ -14,8 +14,13 @@ a solve, on the samples of jobs already run and kept:
   relative to the value, in the body's principal frame.
 
 Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/continuum_bar.py):
-* beadmob: as the job does it (the reference row: the levels' random-effects excess variance since
-  be29465; the coverage replay reproduces the bars of files written since);
+* beadmob before moment control: as the job did it until 12f2eb4 (the levels' random-effects excess
+  variance since be29465; the coverage replay reproduces the bars of files written from then until
+  12f2eb4); every variant below but the next is a change of this one;
+* moment control: beadmob since 12f2eb4 (docs/theory.md T18, "Moment control"): each level's mean
+  with the samples' bead moments (volume, first and second, which average to the body's over
+  random offsets) as control variates, a ridge regression pooled over the levels, its ridge chosen
+  by leave-one-out; replayed on files written before it from the sample moments they hold;
 * cubic beyond noise (built in 51273d1 and 7b47e0c, reverted): the model spread as how far the cubic's
   and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise
   of each difference, sum_k (r_k - r_quadratic,k)^2 s_k^2 (r: an intercept's weights on the level
@@ -33,14 +38,16 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
   five times as far as the quadratic's, so its distance from the quadratic measures the line more
   than the quadratic);
 * 2 sigma alone: no model spread;
-* volume regression, moment regression: before the level means, each corrected sample's relative
-  deviation from its level's mean is regressed, pooled over all levels, on its relative volume
-  deviation (or on the volume and the six central second moments) and the fitted part removed: a
-  control variate learnt from the job's own samples, on top of the equivalent-ellipsoid correction.
+* volume regression, moment regression: the first try of the moment control (plain least squares of
+  each sample's order-L value, so not on jobs with control samples): before the level means, each
+  corrected sample's relative deviation from its level's mean is regressed, pooled over all levels,
+  on its relative volume deviation (or on the volume and the six central second moments) and the
+  fitted part removed.
 
 Kept jobs are not in the repository (the benches' run folders are ignored by git): run coverage.py
 and nonconvex.py with --keep first, or point --coverage / --nonconvex at their folders."""
 import argparse
+import dataclasses
 import json
 from dataclasses import dataclass
 import sys
@@ -59,7 +66,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob", "cubic beyond noise", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
+VARIANTS = ("beadmob before moment control", "moment control", "cubic beyond noise", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
             "no line", "2 sigma alone",
             "volume regression", "moment regression")
 
@@ -201,6 +208,21 @@ def regressed_bar(features):
 
 beadmob_extrapolate = bar_module.extrapolate
 beadmob_combination_bar = bar_module.combination_bar
+beadmob_read_samples = bar_module.read_samples
+
+
+def samples_reader(with_moments):
+    """read_samples with the sample and body moments the moment control uses (from any file since
+    the moments were written) or without them (the estimator before the moment control)."""
+    def read_samples(path):
+        samples = beadmob_read_samples(path)
+        if not with_moments:
+            return dataclasses.replace(samples, sample_moments=None, body_moments=None)
+        with h5py.File(path, "r") as f:
+            c = f["continuum"]
+            return dataclasses.replace(samples, sample_moments=np.asarray(c["sample_moments"][()], dtype=float).reshape(
+                len(samples.sample_level), 13), body_moments=np.asarray(c["body_moments"][()], dtype=float).reshape(13))
+    return read_samples
 
 
 def use_variant(variant, job):
@@ -212,6 +234,7 @@ def use_variant(variant, job):
                               "no line": spread_variant(ReducedSpread),
                               "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
+    bar_module.read_samples = samples_reader(variant == "moment control")
     if variant.endswith("regression"):
         bar_module.combination_bar = regressed_bar(sample_features(job, variant == "moment regression"))
 

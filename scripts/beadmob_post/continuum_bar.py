@@ -130,17 +130,21 @@ SAMPLES_PER_FEATURE = 3
 
 
 def moment_features(moments: np.ndarray, body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """moment_control.f90's features: volume, first (3) and second (6 distinct) moments of each
-    sample's beads, relative to the body's volume V and its radius of gyration r (V, V r, V r^2),
-    and the same of the body; (S, 10) and (10,)."""
+    """moment_control.f90's features: the volume, the first and the six distinct second moments about
+    the body's centroid c of each sample's beads, relative to the body's volume V and its radius of
+    gyration r (V, V r, V r^2), and the same of the body; (S, 10) and (10,)."""
     both = np.vstack([np.atleast_2d(moments), body])
     volume = body[0]
-    second = body[4:13].reshape(3, 3)
-    gyration2 = np.trace(second) / volume / 3.0
-    gyration = np.sqrt(gyration2)
+    centroid = body[1:4] / volume
+    body_second = body[4:13].reshape(3, 3, order="F")
+    gyration2 = (np.trace(body_second) - volume * centroid @ centroid) / volume / 3.0
+    count, first = both[:, 0], both[:, 1:4]
+    second = both[:, 4:13].reshape(-1, 3, 3, order="F")
+    central = (second - np.einsum("si,j->sij", first, centroid) - np.einsum("i,sj->sij", centroid, first)
+               + count[:, None, None] * np.outer(centroid, centroid))
     pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-    columns = [both[:, 0] / volume] + [both[:, 1 + i] / (volume * gyration) for i in range(3)] + \
-              [both[:, 4 + i + 3 * j] / (volume * gyration2) for i, j in pairs]
+    columns = [count / volume] + [(first[:, i] - count * centroid[i]) / (volume * np.sqrt(gyration2)) for i in range(3)] \
+        + [central[:, i, j] / (volume * gyration2) for i, j in pairs]
     table = np.column_stack(columns)
     return table[:-1], table[-1]
 

@@ -26,7 +26,8 @@ module beadmob_continuum_job
   use beadmob_geometry_checks, only: check_bead_model
   use beadmob_body_frame, only: body_frame_t, compute_body_frame, spread_along
   use beadmob_body_extent, only: continuous_extent
-  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
+  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, moments_about_origin, &
+                                  equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
@@ -120,6 +121,10 @@ module beadmob_continuum_job
     type(lattice_turns_t) :: turns
     integer, allocatable :: beads(:)
     real(dp), allocatable :: seconds(:), control_seconds(:)
+    !> A mesh's exact volume and moments about the input's origin (its polyhedron's); for other
+    !> shapes the survey's one fill's, which only foresee the levels (exact_moments false).
+    type(body_moments_t) :: moments
+    logical :: exact_moments = .false.
   end type ladder_survey_t
 
   !> A sample corrected for the body its lattice gave it (docs/theory.md T18, step 2): mobility
@@ -217,16 +222,23 @@ contains
       end do
     end if
 
-    ! The body: volume and moments from geometry-only fills at the finest level (body_moments.f90),
-    ! on the samples' lattices (with turns, each fill's own).
-    allocate (volumes(config%continuum%moment_fills))
-    do fill = 1, config%continuum%moment_fills
-      call build_at(ctx, config, mesh, survey%turns, diameters(size(diameters)), fill, model, err)
-      if (err%failed) return
-      call accumulate(body, moments_in_input_frame(model%centres, diameters(size(diameters)), survey%turns, fill), &
-                      config%continuum%moment_fills)
-      volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
-    end do
+    ! The body: a mesh's exact volume and moments (its polyhedron's: nothing to estimate, so no
+    ! volume error), another shape's from geometry-only fills at the finest level
+    ! (body_moments.f90), on the samples' lattices (with turns, each fill's own), whose scatter is
+    ! the volume's standard error. Both are what the samples' bead moments average to.
+    if (survey%exact_moments) then
+      body = survey%moments
+      volumes = [body%volume]
+    else
+      allocate (volumes(config%continuum%moment_fills))
+      do fill = 1, config%continuum%moment_fills
+        call build_at(ctx, config, mesh, survey%turns, diameters(size(diameters)), fill, model, err)
+        if (err%failed) return
+        call accumulate(body, moments_in_input_frame(model%centres, diameters(size(diameters)), survey%turns, fill), &
+                        config%continuum%moment_fills)
+        volumes(fill) = size(model%centres, 2) * diameters(size(diameters))**3
+      end do
+    end if
 
     ! Coarsest level first. Before each level a budget's ladder is checked against what its levels
     ! have taken so far, and moved coarser if the rest would overrun (keep_to_budget); a move adds
@@ -735,15 +747,18 @@ contains
     if (config%shape%name == 'mesh') then
       if (ctx%rank == 0) then
         ! About the first vertex (far-off coordinates lose no digits); the centroid is the pivot of turns.
-        moments = moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1))
+        moments = moments_about_origin(moments_of_polyhedron(mesh%vertices, mesh%triangles, mesh%vertices(:, 1)), &
+                                       mesh%vertices(:, 1))
         ! The turns' base axes: a pass over the vertices only when the job turns.
         if (config%continuum%turned_lattices) call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
-        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), mesh%vertices(:, 1) + moments%centroid(), &
+        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), moments%centroid(), &
                    reshape(tighter_box_axes(mesh%vertices, axes, config%continuum%turned_lattices .and. &
                                                                       .not. no_axes%failed), [9])]
       end if
       call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
+      survey%moments = moments
+      survey%exact_moments = .true.
       survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
                                      config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp, d)
     else
@@ -1167,7 +1182,7 @@ contains
     result%control_offsets = config%continuum%control_offsets
     result%offsets = config%continuum%offsets
     result%multipole_order = config%hydrodynamics%multipole_order
-    result%moment_fills = config%continuum%moment_fills
+    result%moment_fills = merge(config%continuum%moment_fills, 0, size(volumes) > 1)
     result%time_budget = config%continuum%time_budget
     result%bead_diameters = diameters
     result%volume = body%volume

@@ -9,7 +9,7 @@ module beadmob_body_moments
   use beadmob_lapack, only: dsyev
   implicit none
   private
-  public :: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
+  public :: body_moments_t, moments_of_beads, moments_of_polyhedron, moments_about_origin, equivalent_ellipsoid
 
   real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -69,6 +69,22 @@ contains
       end do
     end do
   end function moments_of_polyhedron
+
+  !> Moments taken about `about` moved to the origin: x = y + about in V, int x, int x x^T.
+  pure function moments_about_origin(moments, about) result(moved)
+    type(body_moments_t), intent(in) :: moments
+    real(dp), intent(in) :: about(3)
+    type(body_moments_t) :: moved
+    integer :: i, j
+    moved%volume = moments%volume
+    moved%first = moments%first + moments%volume * about
+    do j = 1, 3
+      do i = 1, 3
+        moved%second(i, j) = moments%second(i, j) + about(i) * moments%first(j) + moments%first(i) * about(j) + &
+                             moments%volume * about(i) * about(j)
+      end do
+    end do
+  end function moments_about_origin
 
   pure function centroid(moments)
     class(body_moments_t), intent(in) :: moments

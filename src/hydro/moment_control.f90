@@ -31,21 +31,34 @@ module beadmob_moment_control
 
 contains
 
-  !> Features of bead moments (volume, first 3, second 9 column-major: body_moments_t's order):
-  !> volume, first and the six distinct second moments relative to the body's volume V and its
-  !> radius of gyration r (V, V r, V r^2). moments(13, S) -> features(10, S).
+  !> Features of bead moments (volume, first 3, second 9 column-major about the origin:
+  !> body_moments_t's order): the volume, the first and the six distinct second moments about the
+  !> body's centroid c (each still a sum over the beads, so its mean over offsets is the body's),
+  !> relative to the body's volume V and radius of gyration r (V, V r, V r^2); moments(13, S) ->
+  !> features(10, S). About c they do not change when the body is moved.
   pure function moment_features(moments, body) result(features)
     real(dp), intent(in) :: moments(:, :), body(13)
     real(dp) :: features(n_moment_features, size(moments, 2))
     integer, parameter :: first_index(6) = [1, 2, 3, 1, 1, 2], second_index(6) = [1, 2, 3, 2, 3, 3]
-    real(dp) :: volume, gyration2
-    integer :: j
+    real(dp) :: volume, centroid(3), gyration2, body_second(3, 3), second
+    integer :: i, j, q, s
     volume = body(1)
-    gyration2 = (body(5) + body(9) + body(13)) / volume / 3.0_dp
+    centroid = body(2:4) / volume
+    body_second = reshape(body(5:13), [3, 3])
+    gyration2 = (body_second(1, 1) + body_second(2, 2) + body_second(3, 3) - volume * sum(centroid**2)) / volume / 3.0_dp
     features(1, :) = moments(1, :) / volume
-    features(2:4, :) = moments(2:4, :) / (volume * sqrt(gyration2))
-    do j = 1, 6
-      features(4 + j, :) = moments(4 + first_index(j) + 3 * (second_index(j) - 1), :) / (volume * gyration2)
+    do i = 1, 3
+      features(1 + i, :) = (moments(1 + i, :) - moments(1, :) * centroid(i)) / (volume * sqrt(gyration2))
+    end do
+    do q = 1, 6
+      i = first_index(q)
+      j = second_index(q)
+      do s = 1, size(moments, 2)
+        ! sum (x - c)_i (x - c)_j = S_ij - F_i c_j - c_i F_j + N c_i c_j
+        second = moments(4 + i + 3 * (j - 1), s) - moments(1 + i, s) * centroid(j) - centroid(i) * moments(1 + j, s) + &
+                 moments(1, s) * centroid(i) * centroid(j)
+        features(4 + q, s) = second / (volume * gyration2)
+      end do
     end do
   end function moment_features
 

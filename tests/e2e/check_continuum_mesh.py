@@ -25,7 +25,8 @@ every entry of its mobility is generic.
 4. Turned lattices (&continuum turned_lattices, 2 ranks), on the far-off mesh: every sample's
    lattice axes are a proper rotation, each sample's its own (every level its own turns), and the aligned job's are the
    identity; the pivot is the mesh's polyhedral centroid (computed here with numpy), and the
-   volume of the turned moment fills the polyhedron's within 4 of their standard errors; one sample,
+   body's volume the polyhedron's (exact, no moment fills), the turned samples' bead volumes average
+   to it within 4 of their standard errors; one sample,
    rebuilt as an ordinary run of the mesh turned by Q^T about the pivot on that sample's offset and
    bead diameter, has the same beads and, turned back (diag(Q, Q) K diag(Q, Q)^T), the sample's
    friction within the two solves' stated solver error bounds (tests/e2e/solver_promise.py), and its
@@ -160,7 +161,7 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
         pivot = c["lattice_pivot"][()]
         turned = (c["mobility"][()], c["mobility_error"][()])
         body = dict(volume=float(c.attrs["volume"]), error=float(c.attrs["volume_standard_error"]),
-                    fills=int(c.attrs["moment_fills"]))
+                    fills=int(c.attrs["moment_fills"]), samples=np.asarray(c["sample_moments"][()])[:, 0])
         check(int(c.attrs["turned_lattices"]) == 1, "a turned job says so (/continuum turned_lattices = 1)")
     check(all(np.allclose(q.T @ q, np.eye(3), atol=1e-12) and np.linalg.det(q) > 0 for q in axes),
           "every sample's lattice axes are a proper rotation")
@@ -170,9 +171,15 @@ def turned_lattices(beadmob, mpiexec, ranks, workdir, ladder, triangles, aligned
     exact_volume, exact_pivot = polyhedron(triangles)
     check(np.allclose(pivot, exact_pivot, rtol=0, atol=1e-9 * np.abs(exact_pivot).max()),
           f"the pivot is the mesh's centroid ({pivot} against {exact_pivot})")
-    check(abs(body["volume"] - exact_volume) <= 4 * body["error"] and body["fills"] == 32,
-          f"the turned moment fills' volume is the polyhedron's: {body['volume']} +- {body['error']} against "
-          f"{exact_volume} ({body['fills']} fills)")
+    check(abs(body["volume"] - exact_volume) <= 1e-12 * exact_volume and body["error"] == 0 and body["fills"] == 0,
+          f"a mesh's body volume is its polyhedron's, exactly and without fills: {body['volume']} +- {body['error']} "
+          f"against {exact_volume} ({body['fills']} fills)")
+    # The turned samples' bead volumes N d^3 average to the polyhedron's (their expectation over
+    # random offsets and turns: what the moment control relies on).
+    relative = body["samples"] / exact_volume - 1
+    check(abs(relative.mean()) <= 4 * relative.std(ddof=1) / np.sqrt(len(relative)),
+          f"the turned samples' bead volume averages to the polyhedron's: {relative.mean():+.2e} +- "
+          f"{relative.std(ddof=1) / np.sqrt(len(relative)):.1e} over {len(relative)} samples")
     # The last sample rebuilt: the mesh turned by Q^T about the pivot, on the sample's lattice.
     q = axes[last]
     write_obj(workdir / "sample.obj", pivot + (triangles - pivot) @ q)

@@ -6,7 +6,8 @@
 !> the offsets are the continuum job's (offset_sequence: the Halton sequence in bases 2, 3, 5).
 !> moments_of_polyhedron on a box of sides 2, 3, 5 given as 12 triangles, turned and moved far
 !> off: volume 30, centroid the box's centre, central second moments per volume (s_i^2 / 12 on
-!> the box's axes: the exact integrals), to rounding.
+!> the box's axes: the exact integrals), to rounding; moved to the origin (moments_about_origin),
+!> its second moment V (central + c c^T) about the origin, c the box's centre.
 !> The continuum job's lattice turns (turn_sequence): each a proper rotation (Q^T Q = 1, det 1) by
 !> at most the angle asked (cos angle = (trace - 1) / 2), the 64 of a sequence all different and
 !> reaching near that angle, for a small angle and for any (pi).
@@ -17,7 +18,8 @@ program test_body_moments
   use beadmob_simple_shapes, only: build_spheroid
   use beadmob_lattice_fill, only: offset_sequence, turn_sequence
   use beadmob_vector_algebra, only: axis_angle_rotation
-  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, equivalent_ellipsoid
+  use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, moments_about_origin, &
+                                  equivalent_ellipsoid
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp), semi_axes(3) = [9.0_dp, 6.0_dp, 4.5_dp], d = 0.5_dp
   integer, parameter :: fills = 64
@@ -63,7 +65,7 @@ contains
     integer, parameter :: faces(3, 12) = reshape([1, 3, 2, 2, 3, 4, 5, 6, 7, 6, 8, 7, 1, 2, 5, 2, 6, 5, &
                                                    3, 7, 4, 4, 7, 8, 1, 5, 3, 3, 5, 7, 2, 4, 6, 4, 8, 6], [3, 12])
     real(dp) :: corners(3, 8), turn(3, 3), central(3, 3), expected(3, 3), c(3)
-    type(body_moments_t) :: box
+    type(body_moments_t) :: box, moved
     integer :: i, k
     ! a turn about (1, 2, 2) / 3 by 0.7 rad (Rodrigues)
     turn = axis_angle_rotation([1.0_dp, 2.0_dp, 2.0_dp] / 3.0_dp, 0.7_dp)
@@ -86,6 +88,14 @@ contains
     end do
     expected = matmul(turn, matmul(expected, transpose(turn)))
     call check(suite, maxval(abs(central - expected)) < 1.0e-11_dp, 'polyhedron: the box''s central second moments')
+    moved = moments_about_origin(box, corners(:, 1))
+    c = matmul(turn, sides / 2.0_dp) + shift
+    call check(suite, maxval(abs(moved%centroid() - c)) < 1.0e-9_dp, 'polyhedron about the origin: the centroid')
+    do k = 1, 3
+      central(:, k) = product(sides) * (expected(:, k) + c * c(k))
+    end do
+    call check(suite, maxval(abs(moved%second - central)) < 1.0e-12_dp * maxval(abs(central)), &
+               'polyhedron about the origin: the second moment V (central + c c^T)')
   end subroutine check_box_polyhedron
 
   subroutine check_turns(max_angle)
