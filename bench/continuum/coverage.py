@@ -3,7 +3,7 @@
 [--keep DIR] [--reuse DIR] [--out FILE] [--list]: does the continuum job's error bar hold?
 
 Twelve bodies with exact mobilities, each a continuum job on 2 ranks with `&continuum time_budget =
-S /` (default 120 s; every other setting default: 7 levels x 2 offsets and 6 control samples, 4 plain offsets before 2026-11-28, 32 moment fills), in two
+S /` (default 120 s; every other setting default: 7 levels x 2 offsets and 6 control samples, 4 plain offsets before 2026-11-28, 32 moment fills; a mesh none since 2026-11-29), in two
 forms where beadmob has the analytic shape:
 
 * analytic: `sphere` (radius 1) or `spheroid` (semi_axes a, b, c along x, y, z), smallest semi-axis

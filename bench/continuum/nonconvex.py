@@ -32,12 +32,13 @@ bead_diameter * 2^(k/3) and the budget picks its finest level):
 Each mesh is checked before its job: trimesh (when importable: watertight, winding consistent, a
 volume) and our own check (every directed edge met by exactly one reverse edge, no degenerate
 triangle, V - E + F = 2, positive signed volume); its exact polyhedral volume is compared with
-beadmob's (/continuum volume, from the moment fills). `deviation`: the largest distance of a
+beadmob's (/continuum volume: from the moment fills until 2026-11-29, the polyhedron's since). `deviation`: the largest distance of a
 triangle's centroid from the smooth body it stands for (the dumbbell's union, the rod's swept tube,
 the rough sphere's radius function; 0 for the cross).
 
 Every job: `&shape ... bead_diameter /`, `&hydrodynamics /`, `&continuum time_budget = S /`
-(default 600 s; every other setting default: 7 levels x 2 offsets and 6 control samples, 4 plain offsets before 2026-11-28, 32 moment fills) on 2 ranks,
+(default 600 s; every other setting default: 7 levels x 2 offsets and 6 control samples, 4 plain offsets before 2026-11-28, 32 moment fills for the analytic shape and, until 2026-11-29, for
+meshes) on 2 ranks,
 `-keep_checkpoint`, in DIR/<key>/ (default bench/continuum/nonconvex_runs; body.obj, job.nml,
 job.h5, job.log, job.h5.continuum_checkpoint, meta.json). `--continuum TEXT` replaces the group's
 contents (tiny test jobs: `levels = 3, offsets = 2, finest_bead_diameter = ...`).
@@ -734,7 +735,8 @@ def main():
               "load average (2 cores) when the job started and ended; `calibration`: the pilot solve's factor on the "
               "dry run's estimates, which chose the ladder (a loaded machine makes it larger and the ladder coarser); "
               "`difference`: beadmob's volume "
-              "(the moment fills at the finest level) against the mesh's exact polyhedral volume (the analytic "
+              "(the moment fills at the finest level; a mesh's polyhedron's since 2026-11-29) against the mesh's exact "
+              "polyhedral volume (the analytic "
               "ellipsoid's: 4 pi abc / 3), relative and in units of beadmob's standard error.\n\n" + body_table(rows)
             + "\n\n## Per entry\n\nIn the principal frame (the equivalent ellipsoid's axes, a >= b >= c); value in the "
               "body's unit (viscosity 1); the bar and its parts relative to the value; the level means' relative "
