@@ -153,27 +153,28 @@ def moment_control_shift(target: np.ndarray, sample_level: np.ndarray, features:
                          body_features: np.ndarray) -> tuple[np.ndarray, float]:
     """moment_control.f90's moment_control_shift: each sample's shift (to subtract from its value and
     control) and the factor on the level means' variances. The target's deviations from their level
-    means, relative to them, are regressed (ridge, pooled over the levels) on the features'
-    deviations from theirs; the ridge parameter, or none, by the smallest leave-one-out error."""
+    means are regressed (ridge, pooled over the levels) on the features' deviations from theirs;
+    the ridge parameter, or none, by the smallest leave-one-out error."""
     target, features = np.asarray(target, dtype=float), np.asarray(features, dtype=float)
     s, p = features.shape
     levels = np.unique(sample_level)
     if s - len(levels) < SAMPLES_PER_FEATURE * p:
         return np.zeros(s), 1.0
-    centred, relative, scale = features.copy(), target.copy(), np.empty(s)
+    centred, deviation = features.copy(), target.copy()
     for k in levels:
         chosen = sample_level == k
         centred[chosen] -= features[chosen].mean(axis=0)
-        scale[chosen] = target[chosen].mean()
-        relative[chosen] = (target[chosen] - scale[chosen]) / scale[chosen]
+        deviation[chosen] -= target[chosen].mean()
+    if not np.all(np.isfinite(deviation)):
+        return np.zeros(s), 1.0
     spread = np.sqrt(np.sum(centred**2, axis=0) / s)
     used = spread > 1e-14 * np.maximum(np.abs(body_features), 1.0)
-    if not np.any(used) or not np.all(np.isfinite(relative)):
+    if not np.any(used):
         return np.zeros(s), 1.0
     a = centred[:, used] / spread[used]
     gram = a.T @ a
     unit = np.trace(gram) / np.count_nonzero(used)
-    best, best_error = None, float(np.sum(relative**2))
+    best, best_error = None, float(np.sum(deviation**2))
     for ridge in RIDGE_GRID:
         matrix = gram + ridge * unit * np.eye(len(gram))
         try:   # beadmob inverts by Cholesky factors (dpotrf, dpotri) and skips what has none
@@ -184,15 +185,15 @@ def moment_control_shift(target: np.ndarray, sample_level: np.ndarray, features:
         leverage = np.einsum("si,ij,sj->s", a, inverse, a)
         if np.any(1.0 - leverage < 1e-8):
             continue
-        residual = relative - a @ (inverse @ (a.T @ relative))
+        residual = deviation - a @ (inverse @ (a.T @ deviation))
         error = float(np.sum((residual / (1.0 - leverage)) ** 2))
         if error < best_error:
             best, best_error = (inverse, float(np.sum(leverage))), error
     if best is None:
         return np.zeros(s), 1.0
     inverse, parameters = best
-    beta = (inverse @ (a.T @ relative)) / spread[used]
-    shift = scale * ((features[:, used] - body_features[used]) @ beta)
+    beta = (inverse @ (a.T @ deviation)) / spread[used]
+    shift = (features[:, used] - body_features[used]) @ beta
     dof = s - len(levels)
     return shift, dof / max(dof - parameters, 1.0)
 

@@ -9,7 +9,9 @@
 !> explain; the regression learns the body's own sensitivities, which serves bodies that are no
 !> ellipsoid (a cross whose arms gain or lose a layer of beads with the offset).
 !>
-!> The regression is pooled over the levels (the sensitivities are the body's, in relative terms),
+!> The regression is pooled over the levels (the sensitivities are the body's; a level's mean
+!> differs from another's by a few per cent, so one absolute sensitivity serves all, and an entry
+!> whose mean nears zero at some level stays well posed),
 !> ridge-regularised over standardised features (turned or elongated bodies make the moments nearly
 !> collinear), its ridge parameter, or no regression, chosen by the smallest leave-one-out error.
 !> scripts/beadmob_post/continuum_bar.py (moment_control_shift) replays it.
@@ -65,12 +67,13 @@ contains
   !> Each sample's shift, to subtract from its value (and its control's), and the factor on the
   !> level means' variances (the degrees of freedom the regression took). target(S): the quantity
   !> known on every sample (the control, order L - 1, where there are control samples); level(S);
-  !> features(10, S) and the body's (moment_features).
+  !> features(10, S) and the body's (moment_features). The target's deviations from their level's
+  !> mean are regressed on the features' deviations from theirs.
   pure subroutine moment_control_shift(target, level, features, body_features, shift, variance_factor)
     real(dp), intent(in) :: target(:), features(:, :), body_features(:)
     integer, intent(in) :: level(:)
     real(dp), intent(out) :: shift(size(target)), variance_factor
-    real(dp) :: centred(size(features, 1), size(target)), relative(size(target)), scale(size(target))
+    real(dp) :: centred(size(features, 1), size(target)), deviation(size(target))
     real(dp) :: spread(size(features, 1)), beta(size(features, 1)), best_inverse(size(features, 1), size(features, 1))
     real(dp), allocatable :: a(:, :), gram(:, :), inverse(:, :), leverage(:), residual(:)
     real(dp) :: unit, ridge, loo_error, best_error, parameters, dof
@@ -81,7 +84,7 @@ contains
     shift = 0.0_dp
     variance_factor = 1.0_dp
     centred = 0.0_dp
-    scale = 0.0_dp
+    deviation = 0.0_dp
     parameters = 0.0_dp
     levels = 0
     do k = minval(level), maxval(level)
@@ -91,11 +94,10 @@ contains
       do i = 1, size(features, 1)
         centred(i, :) = merge(features(i, :) - sum(features(i, :), mask=chosen) / count(chosen), centred(i, :), chosen)
       end do
-      scale = merge(sum(target, mask=chosen) / count(chosen), scale, chosen)
+      deviation = merge(target - sum(target, mask=chosen) / count(chosen), deviation, chosen)
     end do
     if (s - levels < samples_per_feature * size(features, 1)) return
-    relative = (target - scale) / scale
-    if (.not. all(ieee_is_finite(relative))) return
+    if (.not. all(ieee_is_finite(deviation))) return
     spread = sqrt(sum(centred**2, dim=2) / s)
     used = spread > 1e-14_dp * max(abs(body_features), 1.0_dp)
     p = count(used)
@@ -109,7 +111,7 @@ contains
     end do
     gram = matmul(transpose(a), a)
     unit = sum([(gram(i, i), i = 1, p)]) / p
-    best_error = sum(relative**2)   ! no regression
+    best_error = sum(deviation**2)   ! no regression
     found = .false.
     do j = 1, n_ridge
       ridge = 0.0_dp
@@ -127,7 +129,7 @@ contains
       end do
       leverage = sum(matmul(a, inverse) * a, dim=2)
       if (any(1.0_dp - leverage < 1e-8_dp)) cycle
-      residual = relative - matmul(a, matmul(inverse, matmul(transpose(a), relative)))
+      residual = deviation - matmul(a, matmul(inverse, matmul(transpose(a), deviation)))
       loo_error = sum((residual / (1.0_dp - leverage))**2)
       if (loo_error < best_error) then
         best_error = loo_error
@@ -138,12 +140,12 @@ contains
     end do
     if (.not. found) return
     beta = 0.0_dp
-    beta(1:p) = matmul(best_inverse(1:p, 1:p), matmul(transpose(a), relative))
+    beta(1:p) = matmul(best_inverse(1:p, 1:p), matmul(transpose(a), deviation))
     q = 0
     do i = 1, size(features, 1)
       if (.not. used(i)) cycle
       q = q + 1
-      shift = shift + scale * (features(i, :) - body_features(i)) * beta(q) / spread(i)
+      shift = shift + (features(i, :) - body_features(i)) * beta(q) / spread(i)
     end do
     dof = s - levels
     variance_factor = dof / max(dof - parameters, 1.0_dp)

@@ -9,9 +9,9 @@ linear combination of mobility entries.
   root finder), the bar hypot(2 sigma, spread) + volume term.
 - A body seen turned: samples M_s = Q D_s Q^T; the principal diagonal replayed with Q equals the
   replay of the unturned samples D_s entry by entry.
-- Moment control (docs/theory.md T18): on samples whose deviations from their level's mean are
-  exactly linear in their moment features the shift is numpy's least squares of the relative
-  deviations (the ridge's leave-one-out choice falls on no ridge), and too few samples get none.
+- Moment control (docs/theory.md T18): on samples exactly linear in their moment features the
+  shift is numpy's least squares of the deviations from the level means (the ridge's leave-one-out
+  choice falls on no ridge) and leaves each level's value; too few samples get none.
 - Real result files of the test suite (continuum_np2's spheres, when BEADMOB_TEST_OUTPUT_DIR
   holds them; filled.h5 has samples enough for the moment control): the replay reproduces each
   file's 36 error bars and its diagonal.
@@ -156,18 +156,19 @@ def test_moment_control_on_linear_samples():
     body = rng.normal(size=10)
     sensitivity = rng.normal(size=10)
     level_value = np.array([2.0, 1.5, 1.2])[levels - 1]
-    level_features = np.array([features[levels == k].mean(axis=0) for k in (1, 2, 3)])[levels - 1]
-    target = level_value * (1.0 + 0.01 * (features - level_features) @ sensitivity)
+    target = level_value + 0.01 * (features - body) @ sensitivity
     shift, factor = moment_control_shift(target, levels, features, body)
-    centred, relative = features.copy(), np.empty(60)
+    centred, deviation = features.copy(), target.copy()
     for k in (1, 2, 3):
         chosen = levels == k
         centred[chosen] -= features[chosen].mean(axis=0)
-        relative[chosen] = target[chosen] / target[chosen].mean() - 1.0
-    beta = np.linalg.lstsq(centred, relative, rcond=None)[0]
-    scale = np.array([target[levels == k].mean() for k in (1, 2, 3)])[levels - 1]
-    assert shift == pytest.approx(scale * ((features - body) @ beta), rel=1e-9, abs=1e-12)
+        deviation[chosen] -= target[chosen].mean()
+    beta = np.linalg.lstsq(centred, deviation, rcond=None)[0]
+    assert beta == pytest.approx(0.01 * sensitivity, rel=1e-9)
+    assert shift == pytest.approx((features - body) @ beta, rel=1e-9, abs=1e-12)
     assert factor == pytest.approx(57 / 47, rel=1e-9)
+    # the shifted values are the level values exactly: the linear part removed at the body's moments
+    assert target - shift == pytest.approx(level_value, rel=1e-12)
     few, factor = moment_control_shift(target[:20], levels[:20], features[:20], body)
     assert np.all(few == 0.0) and factor == 1.0
 
