@@ -121,10 +121,9 @@ module beadmob_continuum_job
     type(lattice_turns_t) :: turns
     integer, allocatable :: beads(:)
     real(dp), allocatable :: seconds(:), control_seconds(:)
-    !> A mesh's exact volume and moments about the input's origin (its polyhedron's); for other
-    !> shapes the survey's one fill's, which only foresee the levels (exact_moments false).
+    !> A mesh's exact volume and moments about the input's origin (its polyhedron's); unset for
+    !> other shapes, whose survey fill only foresees the levels.
     type(body_moments_t) :: moments
-    logical :: exact_moments = .false.
   end type ladder_survey_t
 
   !> A sample corrected for the body its lattice gave it (docs/theory.md T18, step 2): mobility
@@ -226,7 +225,7 @@ contains
     ! volume error), another shape's from geometry-only fills at the finest level
     ! (body_moments.f90), on the samples' lattices (with turns, each fill's own), whose scatter is
     ! the volume's standard error. Both are what the samples' bead moments average to.
-    if (survey%exact_moments) then
+    if (config%shape%name == 'mesh') then
       body = survey%moments
       volumes = [body%volume]
     else
@@ -758,7 +757,6 @@ contains
       call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
       moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
       survey%moments = moments
-      survey%exact_moments = .true.
       survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
                                      config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp, d)
     else
@@ -1182,7 +1180,7 @@ contains
     result%control_offsets = config%continuum%control_offsets
     result%offsets = config%continuum%offsets
     result%multipole_order = config%hydrodynamics%multipole_order
-    result%moment_fills = merge(config%continuum%moment_fills, 0, size(volumes) > 1)
+    result%moment_fills = merge(0, config%continuum%moment_fills, config%shape%name == 'mesh')
     result%time_budget = config%continuum%time_budget
     result%bead_diameters = diameters
     result%volume = body%volume
@@ -1304,29 +1302,36 @@ contains
       real(dp), intent(in) :: values(:, :)
       real(dp), intent(out) :: mean(:, :), error(:, :)
       real(dp), intent(in), optional :: controls(:, :)
-      real(dp) :: shift(size(values, 2)), factor
+      real(dp) :: shift(size(values, 1), size(values, 2)), factor(size(values, 1))
       integer :: row
-      do row = 1, size(values, 1)
-        shift = 0.0_dp
-        factor = 1.0_dp
-        if (result%moment_control .and. present(controls)) then
-          call moment_control_shift(controls(row, :), result%sample_level, features, body_features, shift, factor)
-        else if (result%moment_control) then
-          call moment_control_shift(values(row, :), result%sample_level, features, body_features, shift, factor)
-        end if
-        do k = 1, levels
-          members = pack([(s, s = 1, n)], result%sample_level == k)
-          full_members = pack(members, samples(members)%full)
+      ! Each quantity's moment shift (over all levels: the regression is pooled), then the levels.
+      shift = 0.0_dp
+      factor = 1.0_dp
+      if (result%moment_control) then
+        do row = 1, size(values, 1)
           if (present(controls)) then
-            call controlled_level_mean(values(row, full_members) - shift(full_members), &
-                                       controls(row, full_members) - shift(full_members), &
-                                       controls(row, members) - shift(members), mean(row, k), error(row, k))
+            call moment_control_shift(controls(row, :), result%sample_level, features, body_features, shift(row, :), &
+                                      factor(row))
           else
-            call level_mean(values(row, members) - shift(members), mean(row, k), error(row, k))
+            call moment_control_shift(values(row, :), result%sample_level, features, body_features, shift(row, :), &
+                                      factor(row))
           end if
-          error(row, k) = error(row, k) * sqrt(factor)
+        end do
+      end if
+      do k = 1, levels
+        members = pack([(s, s = 1, n)], result%sample_level == k)
+        full_members = pack(members, samples(members)%full)
+        do row = 1, size(values, 1)
+          if (present(controls)) then
+            call controlled_level_mean(values(row, full_members) - shift(row, full_members), &
+                                       controls(row, full_members) - shift(row, full_members), &
+                                       controls(row, members) - shift(row, members), mean(row, k), error(row, k))
+          else
+            call level_mean(values(row, members) - shift(row, members), mean(row, k), error(row, k))
+          end if
         end do
       end do
+      error = error * spread(sqrt(factor), 2, levels)
     end subroutine level_means
 
     !> The flow's response (theory.md T19) extrapolated entry by entry as the mobility's: the
