@@ -901,7 +901,9 @@ contains
   !> its level, or 0 when no level's next control sample fits in `seconds_left` (its cost: the mean
   !> of the level's control samples so far) or none would narrow the bar. The quantities weighed
   !> are the six diagonal mobility entries in the axes of the body's equivalent ellipsoid, each
-  !> relative to its extrapolation so far; rank 0 decides for all (its clock). `corrected` holds
+  !> relative to its extrapolation so far, their level variances as continuum_values forms them
+  !> (with the moment control's shift and factor) and the fit's excess tau^2 beside them; rank 0
+  !> decides for all (its clock). `corrected` holds
   !> rank 0's corrected samples: only those added since the last call are corrected here, and
   !> only the six quantities weighed are fitted (a decision costs no more than a sample's share).
   integer function fill_level(ctx, config, diameters, samples, body, axes, reference_length, corrected, seconds_left, &
@@ -915,13 +917,19 @@ contains
     type(error_t), intent(inout) :: err
     type(corrected_sample_t) :: one
     type(continuum_value_t) :: fit
-    real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
+    real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters)), excess(6)
     real(dp) :: means(size(diameters)), errors(size(diameters)), frame(6, 6), semi(3), ellipsoid_axes(3, 3)
-    real(dp) :: y(size(samples)), x(size(samples))
+    real(dp) :: y(size(samples)), x(size(samples)), shift(size(samples)), factor
+    real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features), body13(13)
     logical :: on_level(size(samples)), full(size(samples))
     integer :: k, q, s, ierr
     level = 0
     if (ctx%rank == 0) then
+      body13 = [body%volume, body%first, reshape(body%second, [9])]
+      features = moment_features(reshape([(samples(s)%moments%volume, samples(s)%moments%first, &
+                                           reshape(samples(s)%moments%second, [9]), s = 1, size(samples))], &
+                                         [13, size(samples)]), body13)
+      body_features = reshape(moment_features(reshape(body13, [13, 1]), body13), [n_moment_features])
       do s = size(corrected) + 1, size(samples)
         call correct_sample(samples(s), body, axes, reference_length, config%continuum%control_offsets > 0, one, err)
         if (err%failed) exit
@@ -940,22 +948,29 @@ contains
               x(s) = dot_product(entry, matmul(reshape(corrected(s)%control_mobility, [6, 6]), entry))
             end do
           end associate
+          factor = 1.0_dp
+          if (config%continuum%moment_control) then
+            call moment_control_shift(x, samples%level, features, body_features, shift, factor)
+            y = y - shift
+            x = x - shift
+          end if
           do k = 1, size(diameters)
             on_level = samples%level == k
             call controlled_level_mean(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
                                        means(k), errors(k), paired(q, k), per_control(q, k))
           end do
           ! Relative to the entry's value, so that every entry counts alike.
-          fit = extrapolate_to_zero(diameters, means, errors, 0.0_dp)
-          paired(q, :) = paired(q, :) / fit%value**2
-          per_control(q, :) = per_control(q, :) / fit%value**2
+          fit = extrapolate_to_zero(diameters, means, errors * sqrt(factor), 0.0_dp)
+          paired(q, :) = factor * paired(q, :) / fit%value**2
+          per_control(q, :) = factor * per_control(q, :) / fit%value**2
+          excess(q) = (fit%excess_deviation / fit%value)**2
         end do
         do k = 1, size(diameters)
           on_level = samples%level == k .and. .not. full
           costs(k) = 0.0_dp
           if (count(on_level) > 0) costs(k) = sum(pack(samples%seconds, on_level)) / count(on_level)
         end do
-        level = next_fill_level(diameters, paired, per_control, [(count(samples%level == k), k = 1, size(diameters))], &
+        level = next_fill_level(diameters, paired, per_control, excess, [(count(samples%level == k), k = 1, size(diameters))], &
                                 costs, seconds_left, max_samples_per_level)
       end if
     end if
