@@ -38,6 +38,14 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
   five times as far as the quadratic's, so its distance from the quadratic measures the line more
   than the quadratic);
 * 2 sigma alone: no model spread;
+* model average (AIC): the moment control's level means, and instead of the quadratic with its
+  model spread, Bayesian model averaging over the fits a lattice-QCD continuum limit would try
+  (W. I. Jay and E. T. Neil, Phys. Rev. D 103, 114502 (2021), arXiv:2008.01069): the line and the
+  quadratic in h through the finest n levels, every n that leaves no negative degrees of freedom,
+  weighed by exp(-(chi^2 + 2 k + 2 N_cut) / 2) (k parameters, N_cut levels left out; chi^2 with
+  beadmob's weights 1 / (s_k^2 + tau^2)); the value their weighted mean, the bar 2 sqrt(the
+  weighted mean of their variances + the weighted variance of their values). It asks the data
+  alone which model holds, as the line in beadmob's spread does;
 * volume regression, moment regression: the first try of the moment control (plain least squares of
   each sample's order-L value, so not on jobs with control samples): before the level means, each
   corrected sample's relative deviation from its level's mean is regressed, pooled over all levels,
@@ -66,9 +74,11 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob before moment control", "moment control", "cubic beyond noise", "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread",
-            "no line", "2 sigma alone",
+VARIANTS = ("beadmob before moment control", "moment control", "model average (AIC)", "cubic beyond noise",
+            "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "no line", "2 sigma alone",
             "volume regression", "moment regression")
+#: the variants built on the moment control (the rest change the estimator before it)
+MOMENT_VARIANTS = ("moment control", "model average (AIC)")
 
 
 class HalfRangeSpread(bar_module.Extrapolation):
@@ -168,6 +178,33 @@ def cubic_beyond_noise(h, mean, standard_error):
     return FixedSpread(**fit.__dict__, spread=float(spread))
 
 
+def model_average(h, mean, standard_error):
+    """Jay and Neil's model average over the line and the quadratic through the finest n levels
+    (every n with at least as many levels as parameters), with beadmob's level weights (its floor
+    and excess tau^2 of the full quadratic); the bar is 2 sigma of the average, its spread 0."""
+    fit = beadmob_extrapolate(h, mean, standard_error)
+    h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
+    n = len(h)
+    weights = 1.0 / (bar_module.floored_standard_error(standard_error, mean) ** 2 + fit.excess_deviation**2)
+    order = np.argsort(h, kind="stable")
+    criteria, values, variances = [], [], []
+    for degree in (1, 2):
+        for kept in range(degree + 1, n + 1):
+            chosen = order[:kept]
+            coefficients, variance, chi2 = bar_module._weighted_polynomial(h[chosen], mean[chosen], weights[chosen],
+                                                                          degree)
+            criteria.append(chi2 + 2 * (degree + 1) + 2 * (n - kept))
+            values.append(coefficients[0])
+            variances.append(variance)
+    criteria, values, variances = np.array(criteria), np.array(values), np.array(variances)
+    probability = np.exp(-(criteria - criteria.min()) / 2)
+    probability /= probability.sum()
+    value = float(probability @ values)
+    total = float(probability @ variances + probability @ (values - value) ** 2)
+    return FixedSpread(value, np.sqrt(total), fit.linear_value, fit.reduced_value, fit.reduced_chi2,
+                       fit.excess_deviation, fit.plain_reduced_chi2, spread=0.0)
+
+
 def half_range_extrapolation(h, mean, standard_error):
     fit = beadmob_extrapolate(h, mean, standard_error)
     return HalfRangeSpread(fit.value, fit.standard_error, fit.linear_value, fit.reduced_value, fit.reduced_chi2)
@@ -231,10 +268,11 @@ def use_variant(variant, job):
                               "floor 0.5": floored_extrapolation(0.5), "floor 1": floored_extrapolation(1.0),
                               "half-range spread": half_range_extrapolation,
                               "cubic beyond noise": cubic_beyond_noise,
+                              "model average (AIC)": model_average,
                               "no line": spread_variant(ReducedSpread),
                               "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
-    bar_module.read_samples = samples_reader(variant == "moment control")
+    bar_module.read_samples = samples_reader(variant in MOMENT_VARIANTS)
     if variant.endswith("regression"):
         bar_module.combination_bar = regressed_bar(sample_features(job, variant == "moment regression"))
 
