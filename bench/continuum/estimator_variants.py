@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""estimator_variants.py [--coverage DIR] [--nonconvex DIR] [--out FILE]: would another error-bar
-estimator make a real particle's continuum bar as small as an ellipsoid's and still hold?
+"""estimator_variants.py [--coverage DIR] [--nonconvex DIR] [--spheres FILE ...] [--variants A,B]
+[--out FILE]: would another error-bar estimator make a real particle's continuum bar as small as an ellipsoid's and still hold?
 
 Issue 44 item 4 asks for bars of 0.1 % (translation) and 0.3 % (rotation) on non-ellipsoidal bodies
 at the default budget. The continuum job's estimator (docs/theory.md T18) is replayed here, without
@@ -354,8 +354,14 @@ def main():
     parser.add_argument("--spheres", nargs="*", default=[],
                         help="result files of continuum jobs of a sphere of radius 1 (e.g. CTest continuum_np2's) "
                              "to replay against Stokes")
+    parser.add_argument("--variants", default=None,
+                        help="comma-separated names of the variants to replay (default: all, in the order above)")
     parser.add_argument("--out", default=str(HERE / "estimator_variants.md"))
     args = parser.parse_args()
+    chosen = VARIANTS if args.variants is None else tuple(v.strip() for v in args.variants.split(","))
+    unknown = [v for v in chosen if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variant(s) {unknown}; known: {', '.join(VARIANTS)}")
     coverage_folder, nonconvex_folder = Path(args.coverage), Path(args.nonconvex)
     sizes = job_sizes(nonconvex_folder)
     lines = ["# Error-bar estimators replayed on kept continuum jobs", "",
@@ -369,7 +375,7 @@ def main():
                                                                   if args.spheres else ""),
              "|---|---|---|---|" + "---|" * (len(sizes) + bool(args.spheres))]
     controlled = any(has_control_samples(job) for job in coverage_folder.glob("*/job.h5"))
-    for variant in VARIANTS:
+    for variant in chosen:
         if controlled and variant.endswith("regression"):
             # Their regression is of each sample's order-L value, which a control sample lacks.
             lines.append(f"| {variant} | not replayed: jobs with control samples (a control sample has no order-L value "

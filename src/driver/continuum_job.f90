@@ -902,10 +902,10 @@ contains
   !> of the level's control samples so far) or none would narrow the bar. The quantities weighed
   !> are the six diagonal mobility entries in the axes of the body's equivalent ellipsoid, each
   !> relative to its extrapolation so far, their level variances as continuum_values forms them
-  !> (with the moment control's shift and factor) and the fit's excess tau^2 beside them; rank 0
-  !> decides for all (its clock). `corrected` holds
-  !> rank 0's corrected samples: only those added since the last call are corrected here, and
-  !> only the six quantities weighed are fitted (a decision costs no more than a sample's share).
+  !> (with the moment control's shift and factor); rank 0 decides for all (its clock).
+  !> `corrected` holds rank 0's corrected samples: only those added since the last call are
+  !> corrected here, and only the six quantities weighed are fitted (a decision costs no more than
+  !> a sample's share).
   integer function fill_level(ctx, config, diameters, samples, body, axes, reference_length, corrected, seconds_left, &
                               err) result(level)
     type(run_context_t), intent(in) :: ctx
@@ -917,7 +917,7 @@ contains
     type(error_t), intent(inout) :: err
     type(corrected_sample_t) :: one
     type(continuum_value_t) :: fit
-    real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters)), excess(6)
+    real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
     real(dp) :: means(size(diameters)), errors(size(diameters)), frame(6, 6), semi(3), ellipsoid_axes(3, 3)
     real(dp) :: y(size(samples)), x(size(samples)), shift(size(samples)), factor
     real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features), body13(13)
@@ -963,14 +963,13 @@ contains
           fit = extrapolate_to_zero(diameters, means, errors * sqrt(factor), 0.0_dp)
           paired(q, :) = factor * paired(q, :) / fit%value**2
           per_control(q, :) = factor * per_control(q, :) / fit%value**2
-          excess(q) = (fit%excess_deviation / fit%value)**2
         end do
         do k = 1, size(diameters)
           on_level = samples%level == k .and. .not. full
           costs(k) = 0.0_dp
           if (count(on_level) > 0) costs(k) = sum(pack(samples%seconds, on_level)) / count(on_level)
         end do
-        level = next_fill_level(diameters, paired, per_control, excess, [(count(samples%level == k), k = 1, size(diameters))], &
+        level = next_fill_level(diameters, paired, per_control, [(count(samples%level == k), k = 1, size(diameters))], &
                                 costs, seconds_left, max_samples_per_level)
       end if
     end if

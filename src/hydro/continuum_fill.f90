@@ -4,9 +4,10 @@
 !> part is nearly all of it (bench/continuum/nonconvex_rtol5.md: 10 to 100 times the first on a
 !> bent rod). One more control sample on level k divides it by (m_k + 1) / m_k, for the seconds
 !> one costs there: coarse levels are cheap and scatter most, the finest carry the extrapolation.
-!> The next sample goes where it lowers the extrapolated values' variance most per second, as the
-!> fit weighs the levels: with the levels' excess tau^2 (their scatter beyond their standard
-!> errors, which no sample on any level lowers) and the moment control's level variances.
+!> The next sample goes where it lowers the extrapolated values' variance most per second. The
+!> levels' excess tau^2 of the fit is left out: estimated from the level means, it takes an
+!> undersampled level's chance deviation for scatter no sample lowers, and would stop buying the
+!> samples that show it is chance (bench/continuum/nonconvex_fill_moment_control.md).
 module beadmob_continuum_fill
   use beadmob_kinds, only: dp
   use beadmob_continuum_fit, only: intercept_variance
@@ -20,21 +21,20 @@ contains
   !> costs(k) <= 0; more than seconds_left; cap samples already) or none would lower the variance.
   !> paired(q, k) and per_control(q, k): the two parts of quantity q's variance on level k
   !> (controlled_variance_parts), each relative to the quantity's value squared, so that every
-  !> quantity counts alike; excess(q): the fit's tau^2 of quantity q, relative as they; counts(k):
-  !> the level's samples m_k; costs(k): seconds per control sample.
-  pure integer function next_fill_level(h, paired, per_control, excess, counts, costs, seconds_left, cap) result(best)
-    real(dp), intent(in) :: h(:), paired(:, :), per_control(:, :), excess(:), costs(:), seconds_left
+  !> quantity counts alike; counts(k): the level's samples m_k; costs(k): seconds per control sample.
+  pure integer function next_fill_level(h, paired, per_control, counts, costs, seconds_left, cap) result(best)
+    real(dp), intent(in) :: h(:), paired(:, :), per_control(:, :), costs(:), seconds_left
     integer, intent(in) :: counts(:), cap
     real(dp) :: now, gain, best_gain
     integer :: k, more(size(h))
     best = 0
     best_gain = 0.0_dp
-    now = total_intercept_variance(h, paired, per_control, excess, counts)
+    now = total_intercept_variance(h, paired, per_control, counts)
     do k = 1, size(h)
       if (costs(k) <= 0.0_dp .or. costs(k) > seconds_left .or. counts(k) >= cap) cycle
       more = counts
       more(k) = more(k) + 1
-      gain = (now - total_intercept_variance(h, paired, per_control, excess, more)) / costs(k)
+      gain = (now - total_intercept_variance(h, paired, per_control, more)) / costs(k)
       if (gain > best_gain) then
         best = k
         best_gain = gain
@@ -43,14 +43,14 @@ contains
   end function next_fill_level
 
   !> Sum over the quantities q of the variance of the quadratic's intercept (intercept_variance)
-  !> with level variances paired(q, k) + per_control(q, k) / counts(k) and the excess(q).
-  pure real(dp) function total_intercept_variance(h, paired, per_control, excess, counts) result(total)
-    real(dp), intent(in) :: h(:), paired(:, :), per_control(:, :), excess(:)
+  !> with level variances paired(q, k) + per_control(q, k) / counts(k).
+  pure real(dp) function total_intercept_variance(h, paired, per_control, counts) result(total)
+    real(dp), intent(in) :: h(:), paired(:, :), per_control(:, :)
     integer, intent(in) :: counts(:)
     integer :: q
     total = 0.0_dp
     do q = 1, size(paired, 1)
-      total = total + intercept_variance(h, sqrt(paired(q, :) + per_control(q, :) / counts), excess(q))
+      total = total + intercept_variance(h, sqrt(paired(q, :) + per_control(q, :) / counts))
     end do
   end function total_intercept_variance
 end module beadmob_continuum_fill

@@ -197,14 +197,14 @@ contains
                                                        abs(fit%reduced_value - fit%value))) + extra
   end function extrapolate_to_zero
 
-  !> The variance of the quadratic's intercept over levels at h with these standard errors, floored
-  !> and with the levels' excess tau^2 added as extrapolate_to_zero weighs them: what one more
-  !> sample on a level would change, before it is solved (continuum_fill.f90).
-  pure real(dp) function intercept_variance(h, standard_error, excess)
-    real(dp), intent(in) :: h(:), standard_error(:), excess
+  !> The variance of the quadratic's intercept over levels at h with these standard errors (floored
+  !> as extrapolate_to_zero floors them; no excess tau^2): what one more sample on a level would
+  !> change, before it is solved (continuum_fill.f90).
+  pure real(dp) function intercept_variance(h, standard_error)
+    real(dp), intent(in) :: h(:), standard_error(:)
     real(dp) :: coefficients(3), chi2
-    call weighted_polynomial(h, 0.0_dp * h, 1.0_dp / (floored_variance(standard_error, 0.0_dp * h) + excess), 2, &
-                             coefficients, intercept_variance, chi2)
+    call weighted_polynomial(h, 0.0_dp * h, 1.0_dp / floored_variance(standard_error, 0.0_dp * h), 2, coefficients, &
+                             intercept_variance, chi2)
   end function intercept_variance
 
   !> The levels' variances s_k^2 as the fit counts them. A few offsets can agree by chance: no

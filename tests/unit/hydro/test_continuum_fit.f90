@@ -109,30 +109,25 @@ program test_continuum_fit
   ! Three levels at h = 1, 2, 3: the quadratic interpolates them, a = (3, -3, 1), so the intercept's
   ! variance is 9 s_1^2 + 9 s_2^2 + s_3^2 (none below the floor of a fifth of the median).
   h3 = [1.0_dp, 2.0_dp, 3.0_dp]
-  call check_close(suite, intercept_variance(h3, [0.1_dp, 0.2_dp, 0.3_dp], 0.0_dp), 9 * 0.01_dp + 9 * 0.04_dp + 0.09_dp, &
+  call check_close(suite, intercept_variance(h3, [0.1_dp, 0.2_dp, 0.3_dp]), 9 * 0.01_dp + 9 * 0.04_dp + 0.09_dp, &
                    1.0e-12_dp, 'intercept variance: the Lagrange weights of three levels')
-  ! The levels' excess tau^2 adds to every level's variance after the floor, as the fit weighs them:
-  ! three levels interpolate whatever their weights, so it adds (9 + 9 + 1) tau^2.
-  call check_close(suite, intercept_variance(h3, [0.1_dp, 0.2_dp, 0.3_dp], 0.01_dp), &
-                   9 * 0.01_dp + 9 * 0.04_dp + 0.09_dp + 19 * 0.01_dp, 1.0e-12_dp, &
-                   'intercept variance: the excess tau^2 on every level')
   ! One more control sample on level k lowers it by a_k^2 v (1/4 - 1/5) with four samples per level
   ! and the same per-sample variance v: levels 1 and 2 (a^2 = 9) before level 3 (a^2 = 1); the
   ! first of equal gains; per second, the cheaper; none where it is not affordable or capped.
   per_control(1, :) = 0.04_dp
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
                                     10.0_dp, 64) == 1, 'fill: the largest Lagrange weight, the first of two equal')
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [4, 4, 4], [1.0_dp, 0.5_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 0.5_dp, 1.0_dp], &
                                     10.0_dp, 64) == 2, 'fill: the same gain for half the seconds')
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [4, 4, 4], [1.0_dp, 1.0_dp, 0.1_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 0.1_dp], &
                                     10.0_dp, 64) == 3, 'fill: a ninth of the gain for a tenth of the seconds')
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [64, 64, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [64, 64, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
                                     10.0_dp, 64) == 3, 'fill: no level beyond its cap')
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
                                     0.5_dp, 64) == 0, 'fill: nothing that does not fit the seconds left')
-  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [0.0_dp], [4, 4, 4], [0.0_dp, -1.0_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, 0.0_dp * per_control, per_control, [4, 4, 4], [0.0_dp, -1.0_dp, 1.0_dp], &
                                     10.0_dp, 64) == 3, 'fill: no level of unknown cost')
-  call check(suite, next_fill_level(h3, per_control, 0.0_dp * per_control, [0.0_dp], [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
+  call check(suite, next_fill_level(h3, per_control, 0.0_dp * per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
                                     10.0_dp, 64) == 0, 'fill: nothing where control samples cannot help')
   call finish_tests(suite)
 end program test_continuum_fit
