@@ -34,7 +34,7 @@ module beadmob_continuum_job
   use beadmob_moment_control, only: moment_features, moment_control_shift, n_moment_features
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
                                    controlled_level_mean
-  use beadmob_continuum_fill, only: next_fill_level
+  use beadmob_continuum_fill, only: next_fill_level, fill_variance_parts
   use beadmob_job_plan, only: job_plan_t, solve_rtol
   use beadmob_friction_job, only: friction_of_plan, friction_result_t, companion_orders
   use beadmob_rigid_body_solve, only: solve_statistics_t
@@ -916,10 +916,8 @@ contains
     type(corrected_sample_t), allocatable, intent(inout) :: corrected(:)
     type(error_t), intent(inout) :: err
     type(corrected_sample_t) :: one
-    type(continuum_value_t) :: fit
     real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
-    real(dp) :: means(size(diameters)), errors(size(diameters)), frame(6, 6), semi(3), ellipsoid_axes(3, 3)
-    real(dp) :: y(size(samples)), x(size(samples)), shift(size(samples)), factor
+    real(dp) :: frame(6, 6), semi(3), ellipsoid_axes(3, 3), y(size(samples)), x(size(samples))
     real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features), body13(13)
     logical :: on_level(size(samples)), full(size(samples))
     integer :: k, q, s, ierr
@@ -948,21 +946,9 @@ contains
               x(s) = dot_product(entry, matmul(reshape(corrected(s)%control_mobility, [6, 6]), entry))
             end do
           end associate
-          factor = 1.0_dp
-          if (config%continuum%moment_control) then
-            call moment_control_shift(x, samples%level, features, body_features, shift, factor)
-            y = y - shift
-            x = x - shift
-          end if
-          do k = 1, size(diameters)
-            on_level = samples%level == k
-            call controlled_level_mean(pack(y, on_level .and. full), pack(x, on_level .and. full), pack(x, on_level), &
-                                       means(k), errors(k), paired(q, k), per_control(q, k))
-          end do
           ! Relative to the entry's value, so that every entry counts alike.
-          fit = extrapolate_to_zero(diameters, means, errors * sqrt(factor), 0.0_dp)
-          paired(q, :) = factor * paired(q, :) / fit%value**2
-          per_control(q, :) = factor * per_control(q, :) / fit%value**2
+          call fill_variance_parts(diameters, y, x, full, samples%level, features, body_features, &
+                                   config%continuum%moment_control, paired(q, :), per_control(q, :))
         end do
         do k = 1, size(diameters)
           on_level = samples%level == k .and. .not. full

@@ -10,10 +10,11 @@
 !> samples that show it is chance (bench/continuum/nonconvex_fill_moment_control.md).
 module beadmob_continuum_fill
   use beadmob_kinds, only: dp
-  use beadmob_continuum_fit, only: intercept_variance
+  use beadmob_continuum_fit, only: continuum_value_t, controlled_level_mean, extrapolate_to_zero, intercept_variance
+  use beadmob_moment_control, only: moment_control_shift
   implicit none
   private
-  public :: next_fill_level, total_intercept_variance
+  public :: next_fill_level, total_intercept_variance, fill_variance_parts
 
 contains
 
@@ -53,4 +54,31 @@ contains
       total = total + intercept_variance(h, sqrt(paired(q, :) + per_control(q, :) / counts))
     end do
   end function total_intercept_variance
+
+  !> One quantity's variance parts on every level as the job's level means form them
+  !> (continuum_values): y(S) its order-L values (read on full samples only), x(S) its order L - 1
+  !> controls, full(S), level(S) in 1..K; with use_moments the moment control's shift subtracted
+  !> from both and its variance factor on both parts (features(10, S), body_features(10):
+  !> moment_features). Both parts relative to the quantity's extrapolated value squared.
+  pure subroutine fill_variance_parts(h, y, x, full, level, features, body_features, use_moments, paired, per_control)
+    real(dp), intent(in) :: h(:), y(:), x(:), features(:, :), body_features(:)
+    logical, intent(in) :: full(:), use_moments
+    integer, intent(in) :: level(:)
+    real(dp), intent(out) :: paired(size(h)), per_control(size(h))
+    real(dp) :: shift(size(y)), factor, means(size(h)), errors(size(h))
+    type(continuum_value_t) :: fit
+    logical :: on_level(size(y))
+    integer :: k
+    shift = 0.0_dp
+    factor = 1.0_dp
+    if (use_moments) call moment_control_shift(x, level, features, body_features, shift, factor)
+    do k = 1, size(h)
+      on_level = level == k
+      call controlled_level_mean(pack(y - shift, on_level .and. full), pack(x - shift, on_level .and. full), &
+                                 pack(x - shift, on_level), means(k), errors(k), paired(k), per_control(k))
+    end do
+    fit = extrapolate_to_zero(h, means, errors * sqrt(factor), 0.0_dp)
+    paired = factor * paired / fit%value**2
+    per_control = factor * per_control / fit%value**2
+  end subroutine fill_variance_parts
 end module beadmob_continuum_fill

@@ -7,14 +7,15 @@
 !> another frame; the extrapolation recovers a quadratic exactly and bounds a noisy one, and two
 !> levels whose offsets all gave the same beads (zero scatter) do not pin it. fill_budget's choice
 !> (src/hydro/continuum_fill.f90) against the variance of an interpolating quadratic's value at 0,
-!> sum_k a_k^2 s_k^2 with the Lagrange weights a_k = prod_{j /= k} h_j / (h_j - h_k).
+!> sum_k a_k^2 s_k^2 with the Lagrange weights a_k = prod_{j /= k} h_j / (h_j - h_k); the fill's
+!> level variances with the moment control: a scatter the moments explain is not seen.
 program test_continuum_fit
   use beadmob_kinds, only: dp
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, carlson_rf, carlson_rd
   use beadmob_continuum_fit, only: continuum_value_t, extrapolate_to_zero, level_mean, controlled_level_mean, &
                                    intercept_variance
-  use beadmob_continuum_fill, only: next_fill_level
+  use beadmob_continuum_fill, only: next_fill_level, fill_variance_parts
   implicit none
   real(dp), parameter :: pi = acos(-1.0_dp)
   type(test_suite_t) :: suite
@@ -23,6 +24,10 @@ program test_continuum_fit
   real(dp) :: mean, error, h7(7), y7(7), se7(7), h3(3), per_control(1, 3)
   type(continuum_value_t) :: shared_scatter
   integer :: k
+  integer, parameter :: n_fill = 48
+  real(dp) :: features(10, n_fill), x_fill(n_fill), paired3(3), per_control3(3), level_means(3), level_errors(3)
+  logical :: full_fill(n_fill)
+  integer :: level_fill(n_fill), s, j
 
   suite = start_tests('test_continuum_fit')
   call check_close(suite, carlson_rf(1.0_dp, 2.0_dp, 0.0_dp), 1.3110287771461_dp, 1.0e-12_dp, 'R_F(1, 2, 0)')
@@ -129,5 +134,37 @@ program test_continuum_fit
                                     10.0_dp, 64) == 3, 'fill: no level of unknown cost')
   call check(suite, next_fill_level(h3, per_control, 0.0_dp * per_control, [4, 4, 4], [1.0_dp, 1.0_dp, 1.0_dp], &
                                     10.0_dp, 64) == 0, 'fill: nothing where control samples cannot help')
+
+  ! The fill's level variances (fill_variance_parts): 16 samples on each of three levels, every
+  ! fourth full, whose controls x = 1 + 0.02 f_1 follow their first moment feature f_1 exactly (the
+  ! features deterministic and not collinear, the body's 0) and whose full values equal them
+  ! (var(y - x) = 0). Without the moment control a level's per-control part is the sample variance
+  ! of its x over the extrapolated value squared; with it, the regression takes the whole scatter
+  ! (a linear value is recovered exactly, test_moment_control), and the fill sees none.
+  do s = 1, n_fill
+    level_fill(s) = (s - 1) / 16 + 1
+    full_fill(s) = modulo(s, 4) == 1
+    do j = 1, 10
+      features(j, s) = sin(1.3_dp * s * j + 0.7_dp * j**2)
+    end do
+    x_fill(s) = 1.0_dp + 0.02_dp * features(1, s)
+  end do
+  call fill_variance_parts(h3, x_fill, x_fill, full_fill, level_fill, features, [(0.0_dp, j = 1, 10)], .false., &
+                           paired3, per_control3)
+  do k = 1, 3
+    call level_mean(pack(x_fill, level_fill == k), level_means(k), level_errors(k))
+  end do
+  fit = extrapolate_to_zero(h3, level_means, level_errors, 0.0_dp)
+  do k = 1, 3
+    associate (x_level => pack(x_fill, level_fill == k))
+      call check_close(suite, per_control3(k) * fit%value**2, sum((x_level - sum(x_level) / 16)**2) / 15, 1.0e-12_dp, &
+                       'fill variances: without the moment control, the level''s scatter of its controls')
+    end associate
+  end do
+  call check(suite, all(paired3 == 0.0_dp), 'fill variances: no paired part where y = x')
+  call fill_variance_parts(h3, x_fill, x_fill, full_fill, level_fill, features, [(0.0_dp, j = 1, 10)], .true., &
+                           paired3, per_control3)
+  call check(suite, maxval(per_control3) < 1.0e-20_dp, &
+             'fill variances: with the moment control, no scatter the moments explain')
   call finish_tests(suite)
 end program test_continuum_fit
