@@ -17,10 +17,16 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
 * beadmob before moment control: as the job did it until 12f2eb4 (the levels' random-effects excess
   variance since be29465; the coverage replay reproduces the bars of files written from then until
   12f2eb4); every variant below but the next is a change of this one;
-* moment control: beadmob since 12f2eb4 (docs/theory.md T18, "Moment control"): each level's mean
-  with the samples' bead moments (volume, first and second, which average to the body's over
-  random offsets) as control variates, a ridge regression pooled over the levels, its ridge chosen
-  by leave-one-out; replayed on files written before it from the sample moments they hold;
+* moment control: beadmob from 12f2eb4 until the next term (docs/theory.md T18, "Moment control"):
+  each level's mean with the samples' bead moments (volume, first and second, which average to the
+  body's over random offsets) as control variates, a ridge regression pooled over the levels, its
+  ridge chosen by leave-one-out; replayed on files written before it from the sample moments they
+  hold; its model spread (as every variant's above and below that does not say otherwise) the
+  larger distance of the line through the three finest levels and of the quadratic without the
+  coarsest from the quadratic;
+* next term: beadmob since 2026-11-29 (T18, "The error bar"): the moment control with the line's
+  distance capped, on ladders of five or more levels, by the h^3 term the quadratic's own b h and
+  c h^2 foresee (c^2 / b times the quadratic's intercept of h^3);
 * cubic beyond noise (built in 51273d1 and 7b47e0c, reverted): the model spread as how far the cubic's
   and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise
   of each difference, sum_k (r_k - r_quadratic,k)^2 s_k^2 (r: an intercept's weights on the level
@@ -74,11 +80,11 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob before moment control", "moment control", "model average (AIC)", "cubic beyond noise",
+VARIANTS = ("beadmob before moment control", "moment control", "next term", "model average (AIC)", "cubic beyond noise",
             "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "no line", "2 sigma alone",
             "volume regression", "moment regression")
 #: the variants built on the moment control (the rest change the estimator before it)
-MOMENT_VARIANTS = ("moment control", "model average (AIC)")
+MOMENT_VARIANTS = ("moment control", "next term", "model average (AIC)")
 
 
 class HalfRangeSpread(bar_module.Extrapolation):
@@ -86,6 +92,13 @@ class HalfRangeSpread(bar_module.Extrapolation):
     def model_spread(self) -> float:
         intercepts = (self.value, self.linear_value, self.reduced_value)
         return (max(intercepts) - min(intercepts)) / 2
+
+
+class LineSpread(bar_module.Extrapolation):
+    """The model spread until the next term: the line's and the reduced quadratic's larger distance."""
+    @property
+    def model_spread(self) -> float:
+        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
 
 
 class ReducedSpread(bar_module.Extrapolation):
@@ -114,7 +127,7 @@ def floored_extrapolation(floor):
         saved = bar_module.STANDARD_ERROR_FLOOR
         bar_module.STANDARD_ERROR_FLOOR = floor
         try:
-            return beadmob_extrapolate(h, mean, standard_error)
+            return line_extrapolate(h, mean, standard_error)
         finally:
             bar_module.STANDARD_ERROR_FLOOR = saved
     return extrapolate
@@ -244,6 +257,7 @@ def regressed_bar(features):
 
 
 beadmob_extrapolate = bar_module.extrapolate
+line_extrapolate = spread_variant(LineSpread)
 beadmob_combination_bar = bar_module.combination_bar
 beadmob_read_samples = bar_module.read_samples
 
@@ -270,7 +284,8 @@ def use_variant(variant, job):
                               "cubic beyond noise": cubic_beyond_noise,
                               "model average (AIC)": model_average,
                               "no line": spread_variant(ReducedSpread),
-                              "2 sigma alone": spread_variant(NoSpread)}.get(variant, beadmob_extrapolate)
+                              "2 sigma alone": spread_variant(NoSpread),
+                              "next term": beadmob_extrapolate}.get(variant, line_extrapolate)
     bar_module.combination_bar = beadmob_combination_bar
     bar_module.read_samples = samples_reader(variant in MOMENT_VARIANTS)
     if variant.endswith("regression"):

@@ -18,6 +18,7 @@ import numpy as np
 
 #: beadmob's floor on a level's standard error, as a fraction of the median level's (continuum_fit.f90).
 STANDARD_ERROR_FLOOR = 0.2
+NEXT_TERM_LEVELS = 5      # continuum_fit.f90's next_term_levels
 
 
 @dataclass(frozen=True)
@@ -49,10 +50,11 @@ class Extrapolation:
     reduced_chi2: float = float("nan")   # chi^2 / (K - 3) of the quadratic (nan for K = 3; 1 with an excess)
     excess_deviation: float = 0.0        # tau: the levels' scatter beyond their standard errors
     plain_reduced_chi2: float = float("nan")   # chi^2 / (K - 3) with weights 1 / s_k^2 alone (above 1: tau > 0)
+    next_term: float = float("inf")      # the foreseen h^3 term's shift of the intercept (inf: K < 5)
 
     @property
     def model_spread(self) -> float:
-        return max(abs(self.linear_value - self.value), abs(self.reduced_value - self.value))
+        return max(abs(self.reduced_value - self.value), min(abs(self.linear_value - self.value), self.next_term))
 
     @property
     def fit_error(self) -> float:
@@ -257,7 +259,18 @@ def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> 
         kept = order[: n - 1]
         reduced = _weighted_polynomial(h[kept], mean[kept], weights[kept], 2)[0][0]
     return Extrapolation(float(coefficients[0]), float(np.sqrt(variance)), float(linear), float(reduced),
-                         float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2))
+                         float(reduced_chi2), float(np.sqrt(excess)), float(plain_chi2),
+                         next_term_shift(h, weights, coefficients[1], coefficients[2]))
+
+
+def next_term_shift(h: np.ndarray, weights: np.ndarray, b: float, c: float) -> float:
+    """continuum_fit.f90's next_term_shift: |c^2 / b| times the weighted quadratic's intercept of h^3,
+    the h^3 term foreseen as the series a + b h + c h^2 continues geometrically (inf on fewer than
+    NEXT_TERM_LEVELS levels or b = 0)."""
+    if len(h) < NEXT_TERM_LEVELS or b == 0.0:
+        return float("inf")
+    kappa3 = _weighted_polynomial(h, h**3, weights, 2)[0][0]
+    return float(abs(c) * abs(c / b) * abs(kappa3))
 
 
 def combination_level_means(samples: ContinuumSamples, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1284,6 +1284,7 @@ contains
       result%coefficient_standard_error(q) = fit%standard_error
       result%coefficient_linear(q) = fit%linear_value
       result%coefficient_reduced(q) = fit%reduced_value
+      result%coefficient_next_term(q) = fit%next_term
       result%coefficient_level_excess(q) = fit%excess_deviation
     end do
     result%mobility = 0.5_dp * (result%mobility + transpose(result%mobility))

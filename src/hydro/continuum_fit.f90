@@ -8,8 +8,11 @@
 !> a level whose offsets happened to agree then no longer pins the fit. The error bar is the
 !> quadrature sum of
 !>   - twice the fit's standard error of the intercept and
-!>   - the model spread: how far the straight line through the three finest levels and the
-!>     quadratic without the coarsest level land from the quadratic,
+!>   - the model spread: how far the quadratic without the coarsest level lands from the
+!>     quadratic, or, if further, the neglected h^3 term: on ladders of five or more levels its
+!>     size as the quadratic's own terms foresee it (the next term of their geometric series),
+!>     at most, and on shorter ladders exactly, how far the straight line through the three
+!>     finest levels lands,
 !> plus what the caller knows besides (the continuum volume's own uncertainty).
 module beadmob_continuum_fit
   use beadmob_kinds, only: dp
@@ -80,6 +83,8 @@ module beadmob_continuum_fit
     real(dp) :: mobility_level_excess(6, 6) = 0.0_dp, coefficient_level_excess(5) = 0.0_dp
     real(dp) :: coefficients(5) = 0.0_dp, coefficient_error(5) = 0.0_dp
     real(dp) :: coefficient_linear(5) = 0.0_dp, coefficient_reduced(5) = 0.0_dp
+    !> The foreseen h^3 term's shift of each coefficient's intercept (huge() on short ladders)
+    real(dp) :: coefficient_next_term(5) = 0.0_dp
     real(dp) :: coefficient_standard_error(5) = 0.0_dp
     !> A flow job (theory.md T19): per sample its corrected velocity (6 x 5) and stresslet (5 x 5) per
     !> unit strain (columns flattened, about the body's centroid, input axes), per level their means
@@ -96,6 +101,9 @@ module beadmob_continuum_fit
 
   !> The smallest standard error a level may count with, as a fraction of the median level's.
   real(dp), parameter, public :: standard_error_floor = 0.2_dp
+  !> The fewest levels whose quadratic foretells its next term: with five, the quadratic has two
+  !> degrees of freedom beyond interpolation, so its b and c are measured, not interpolated.
+  integer, parameter, public :: next_term_levels = 5
 
   !> One quantity's continuum value and the parts of its error bar.
   type :: continuum_value_t
@@ -103,7 +111,11 @@ module beadmob_continuum_fit
     real(dp) :: standard_error = 0.0_dp ! of that intercept
     real(dp) :: linear_value = 0.0_dp   ! intercept of the line through the three finest levels
     real(dp) :: reduced_value = 0.0_dp  ! intercept of the quadratic without the coarsest level
+    !> What the h^3 term the quadratic leaves out would move its intercept by, foreseen from the
+    !> fitted b h and c h^2 (huge() on ladders of fewer than next_term_levels levels)
+    real(dp) :: next_term = huge(1.0_dp)
     real(dp) :: slope = 0.0_dp          ! d value / d h at h = 0
+    real(dp) :: curvature = 0.0_dp      ! the quadratic's coefficient of h^2
     real(dp) :: excess_deviation = 0.0_dp ! tau: how far the level means scatter beyond their standard errors
     real(dp) :: error = 0.0_dp          ! the error bar (module header)
   end type continuum_value_t
@@ -177,6 +189,7 @@ contains
     call weighted_polynomial(h, mean, weights, 2, coefficients, variance, chi2)
     fit%value = coefficients(1)
     fit%slope = coefficients(2)
+    fit%curvature = coefficients(3)
     fit%standard_error = sqrt(variance)
     ! The three finest levels (smallest h) for the line; all but the coarsest for the reduced fit.
     order = ranks_by_size(h)
@@ -191,11 +204,34 @@ contains
         fit%reduced_value = coefficients(1)
       end associate
     end if
+    fit%next_term = next_term_shift(h, weights, fit%slope, fit%curvature)
     ! The fit's noise (2 sigma) and the model's uncertainty (the spread) are independent: their
     ! quadrature sum (docs/theory.md T18, "The error bar").
-    fit%error = hypot(2.0_dp * fit%standard_error, max(abs(fit%linear_value - fit%value), &
-                                                       abs(fit%reduced_value - fit%value))) + extra
+    fit%error = hypot(2.0_dp * fit%standard_error, model_spread(fit)) + extra
   end function extrapolate_to_zero
+
+  !> The model spread of the error bar (module header): the reduced quadratic's distance, or the
+  !> foreseen h^3 term capped by the finest line's distance (the line alone without a foresight).
+  pure real(dp) function model_spread(fit)
+    type(continuum_value_t), intent(in) :: fit
+    model_spread = max(abs(fit%reduced_value - fit%value), min(abs(fit%linear_value - fit%value), fit%next_term))
+  end function model_spread
+
+  !> The shift of the quadratic's intercept by the h^3 term it leaves out, |d| kappa_3, with d
+  !> foreseen as the series a + b h + c h^2 + d h^3 + ... continues geometrically, d = c^2 / b
+  !> (each term the last times c h / b), and kappa_3 the intercept the same weighted quadratic
+  !> gives the values h^3 (its bias on a pure h^3). The line through the finest levels, the
+  !> spread until 2026-11-29, measures the c h^2 term itself, one order too low: 5-7 times the
+  !> true error on the coverage bench (docs/theory.md T18, "The error bar").
+  pure real(dp) function next_term_shift(h, weights, b, c)
+    real(dp), intent(in) :: h(:), weights(:), b, c
+    real(dp) :: coefficients(3), variance, chi2
+    next_term_shift = huge(1.0_dp)
+    if (size(h) < next_term_levels .or. abs(b) <= tiny(1.0_dp)) return
+    call weighted_polynomial(h, h**3, weights, 2, coefficients, variance, chi2)
+    if (abs(c) * abs(c / b) >= huge(1.0_dp) / max(abs(coefficients(1)), 1.0_dp)) return
+    next_term_shift = abs(c) * abs(c / b) * abs(coefficients(1))
+  end function next_term_shift
 
   !> The variance of the quadratic's intercept over levels at h with these standard errors (floored
   !> as extrapolate_to_zero floors them; no excess tau^2): what one more sample on a level would

@@ -2,6 +2,7 @@
 !> parallel HDF5 to '<output>.partial' and renamed to '<output>' only when complete, so a
 !> failed run never leaves a half-written result under the requested name.
 module beadmob_result_file
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
   use hdf5, only: hid_t
   use mpi, only: MPI_Barrier
   use beadmob_file_system, only: rename_file, remove_file
@@ -436,6 +437,10 @@ contains
     call write_replicated_dataset(ctx, group, 'coefficient_standard_error', c%coefficient_standard_error, err)
     call write_replicated_dataset(ctx, group, 'coefficients_linear_fit', c%coefficient_linear, err)
     call write_replicated_dataset(ctx, group, 'coefficients_without_coarsest', c%coefficient_reduced, err)
+    ! huge() (no foresight on a short ladder) is written as infinity, which HDF5 readers understand
+    call write_replicated_dataset(ctx, group, 'coefficients_next_term', &
+                                  merge(ieee_value(1.0_dp, ieee_positive_inf), c%coefficient_next_term, &
+                                        c%coefficient_next_term >= huge(1.0_dp)), err)
     call write_replicated_dataset(ctx, group, 'mobility_level_excess', transpose(c%mobility_level_excess), err)
     call write_replicated_dataset(ctx, group, 'coefficient_level_excess', c%coefficient_level_excess, err)
     call write_attribute(group, 'control_offsets', c%control_offsets, err)

@@ -70,12 +70,23 @@ def test_exact_line_has_only_the_volume_term(tmp_path):
         assert bar == pytest.approx(entry_power(i, i) / 3 * 0.001 * base[i, i], abs=1e-8 * base[i, i])
 
 
-def test_exact_quadratic_spread_is_the_line(tmp_path):
+def test_exact_quadratic_spread_is_the_next_term(tmp_path):
+    # Seven levels: the spread is the h^3 term foreseen from the quadratic's b = 0.015 and c = -0.025,
+    # c^2 / b times the intercept numpy's least squares of h^3 on [1, h, h^2] gives (equal weights),
+    # where that is below the line's distance (numpy.polyfit of the three finest levels).
     mean = 0.05 * (1 + 0.3 * H - 0.5 * H**2)
     fit = extrapolate(H, mean, np.full(7, 1e-5))
     line = np.polyfit(H[-3:], mean[-3:], 1)[1]
+    kappa3 = np.linalg.lstsq(np.vander(H, 3, increasing=True), H**3, rcond=None)[0][0]
+    next_term = 0.025**2 / 0.015 * abs(kappa3)
     assert fit.value == pytest.approx(0.05, rel=1e-10)
     assert fit.reduced_value == pytest.approx(0.05, rel=1e-10)
+    assert next_term < abs(line - 0.05)
+    assert fit.next_term == pytest.approx(next_term, rel=1e-8)
+    assert fit.model_spread == pytest.approx(next_term, rel=1e-8)
+    # Four levels foresee nothing: the spread is the line's distance.
+    fit = extrapolate(H[-4:], mean[-4:], np.full(4, 1e-5))
+    assert fit.next_term == np.inf
     assert fit.model_spread == pytest.approx(abs(line - 0.05), rel=1e-8)
 
 

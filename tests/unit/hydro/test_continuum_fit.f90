@@ -65,9 +65,16 @@ program test_continuum_fit
   call check_close(suite, fit%value, 2.0_dp, 1.0e-12_dp, 'quadratic: intercept')
   call check_close(suite, fit%slope, 3.0_dp, 1.0e-9_dp, 'quadratic: slope')
   call check(suite, abs(fit%reduced_value - 2.0_dp) < 1.0e-12_dp, 'quadratic: the reduced fit agrees')
-  ! The line through the three finest levels misses the curvature: the model spread shows it.
-  call check(suite, fit%error >= abs(fit%linear_value - 2.0_dp) .and. fit%error > 1.0e-3_dp, &
-             'quadratic: the error bar holds the line''s distance')
+  ! Five levels foresee the h^3 term as c^2 / b times the quadratic's intercept of h^3: (25 / 3)
+  ! 4.5353e-3 (numpy.linalg.lstsq of h^3 on [1, h, h^2]: 0.037794229503904826), below the line's
+  ! distance 0.0825 (numpy.polyfit of the three finest levels), which only caps it.
+  call check_close(suite, fit%next_term, 0.037794229503904826_dp, 1.0e-9_dp, 'quadratic: the foreseen h^3 term')
+  call check(suite, fit%error >= fit%next_term .and. fit%next_term < abs(fit%linear_value - 2.0_dp), &
+             'quadratic: the error bar holds the foreseen h^3 term, below the line''s distance')
+  ! Four levels foresee nothing: the line's distance is the model spread.
+  fit = extrapolate_to_zero(h(1:4), y(1:4), se(1:4), 0.0_dp)
+  call check(suite, fit%next_term == huge(1.0_dp) .and. fit%error >= abs(fit%linear_value - 2.0_dp) .and. &
+             abs(fit%linear_value - 2.0_dp) > 1.0e-3_dp, 'quadratic, 4 levels: the error bar holds the line''s distance')
   ! Noise of +-se around a cubic: the bar must hold the truth (2) and stay of the noise's size.
   y = 2.0_dp + 3.0_dp * h - 5.0_dp * h**2 + 4.0_dp * h**3 + 1.0e-3_dp * [1.0_dp, -1.0_dp, 0.5_dp, 1.0_dp, -0.5_dp]
   fit = extrapolate_to_zero(h, y, se, 0.0_dp)
@@ -89,6 +96,12 @@ program test_continuum_fit
              'resonant levels: two zero-scatter levels do not pin the fit')
   call check(suite, abs(fit%error / shared_scatter%error - 1.0_dp) < 0.05_dp, &
              'resonant levels: nor do they shrink the bar')
+  ! A geometric series 2 / (1 - h) = 2 (1 + h + h^2 + h^3 + ...) on seven levels up to h = 0.4:
+  ! the quadratic misses its h^3 and higher terms; the foreseen h^3 term (c^2 / b of the fitted
+  ! b, c) must not fall short of that miss, nor the bar of the truth.
+  fit = extrapolate_to_zero(h7, 2.0_dp / (1.0_dp - h7), [(1.0e-6_dp, k = 1, 7)], 0.0_dp)
+  call check(suite, fit%next_term >= abs(fit%value - 2.0_dp) .and. abs(fit%value - 2.0_dp) <= fit%error, &
+             'geometric series: the foreseen h^3 term and the error bar hold the truth')
   ! An entry that symmetry makes zero in every sample: value and bar 0, no overflow of its weights.
   fit = extrapolate_to_zero(h7, [(0.0_dp, k = 1, 7)], [(0.0_dp, k = 1, 7)], 0.0_dp)
   call check(suite, fit%value == 0.0_dp .and. fit%error < 1.0e-100_dp, 'vanishing entry: value and bar 0')
