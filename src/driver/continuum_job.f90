@@ -27,11 +27,12 @@ module beadmob_continuum_job
   use beadmob_body_frame, only: body_frame_t, compute_body_frame, spread_along
   use beadmob_body_extent, only: continuous_extent
   use beadmob_body_moments, only: body_moments_t, moments_of_beads, moments_of_polyhedron, moments_about_origin, &
+                                  unpacked_moments, packed_moments_size, &
                                   equivalent_ellipsoid
   use beadmob_ellipsoid_friction, only: ellipsoid_friction, ellipsoid_grand_resistance
   use beadmob_mobility, only: mobility_result_t, compute_mobility, invert
   use beadmob_lapack, only: dsyev
-  use beadmob_moment_control, only: moment_features, moment_control_shift, n_moment_features
+  use beadmob_moment_control, only: moment_features, body_moment_features, moment_control_shift, n_moment_features
   use beadmob_continuum_fit, only: continuum_result_t, continuum_value_t, extrapolate_to_zero, level_mean, &
                                    controlled_level_mean
   use beadmob_continuum_fill, only: next_fill_level, fill_variance_parts
@@ -750,12 +751,12 @@ contains
                                        mesh%vertices(:, 1))
         ! The turns' base axes: a pass over the vertices only when the job turns.
         if (config%continuum%turned_lattices) call equivalent_ellipsoid(moments, 0.0_dp, semi_axes, axes, no_axes)
-        numbers = [moments%volume, moments%first, reshape(moments%second, [9]), moments%centroid(), &
+        numbers = [moments%packed(), moments%centroid(), &
                    reshape(tighter_box_axes(mesh%vertices, axes, config%continuum%turned_lattices .and. &
                                                                       .not. no_axes%failed), [9])]
       end if
       call MPI_Bcast(numbers, 25, MPI_DOUBLE_PRECISION, 0, ctx%comm, ierr)
-      moments = body_moments_t(numbers(1), numbers(2:4), reshape(numbers(5:13), [3, 3]))
+      moments = unpacked_moments(numbers(1:packed_moments_size))
       survey%moments = moments
       survey%turns = lattice_turns_t(config%continuum%turned_lattices, numbers(14:16), reshape(numbers(17:25), [3, 3]), &
                                      config%continuum%turn_angle * acos(-1.0_dp) / 180.0_dp, d)
@@ -917,17 +918,16 @@ contains
     type(error_t), intent(inout) :: err
     type(corrected_sample_t) :: one
     real(dp) :: paired(6, size(diameters)), per_control(6, size(diameters)), costs(size(diameters))
-    real(dp) :: frame(6, 6), semi(3), ellipsoid_axes(3, 3), y(size(samples)), x(size(samples))
-    real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features), body13(13)
+    real(dp) :: frame(6, 6), semi(3), ellipsoid_axes(3, 3), y(6, size(samples)), x(6, size(samples))
+    real(dp) :: features(n_moment_features, size(samples)), body_features(n_moment_features), body_packed(packed_moments_size)
     logical :: on_level(size(samples)), full(size(samples))
     integer :: k, q, s, ierr
     level = 0
     if (ctx%rank == 0) then
-      body13 = [body%volume, body%first, reshape(body%second, [9])]
-      features = moment_features(reshape([(samples(s)%moments%volume, samples(s)%moments%first, &
-                                           reshape(samples(s)%moments%second, [9]), s = 1, size(samples))], &
-                                         [13, size(samples)]), body13)
-      body_features = reshape(moment_features(reshape(body13, [13, 1]), body13), [n_moment_features])
+      body_packed = body%packed()
+      features = moment_features(reshape([(samples(s)%moments%packed(), s = 1, size(samples))], &
+                                         [packed_moments_size, size(samples)]), body_packed)
+      body_features = body_moment_features(body_packed)
       do s = size(corrected) + 1, size(samples)
         call correct_sample(samples(s), body, axes, reference_length, config%continuum%control_offsets > 0, one, err)
         if (err%failed) exit
@@ -942,14 +942,14 @@ contains
         do q = 1, 6
           associate (entry => frame(:, q))
             do s = 1, size(samples)
-              y(s) = dot_product(entry, matmul(reshape(corrected(s)%mobility, [6, 6]), entry))
-              x(s) = dot_product(entry, matmul(reshape(corrected(s)%control_mobility, [6, 6]), entry))
+              y(q, s) = dot_product(entry, matmul(reshape(corrected(s)%mobility, [6, 6]), entry))
+              x(q, s) = dot_product(entry, matmul(reshape(corrected(s)%control_mobility, [6, 6]), entry))
             end do
           end associate
-          ! Relative to the entry's value, so that every entry counts alike.
-          call fill_variance_parts(diameters, y, x, full, samples%level, features, body_features, &
-                                   config%continuum%moment_control, paired(q, :), per_control(q, :))
         end do
+        ! Relative to each entry's value, so that every entry counts alike.
+        call fill_variance_parts(diameters, y, x, full, samples%level, features, body_features, &
+                                 config%continuum%moment_control, paired, per_control)
         do k = 1, size(diameters)
           on_level = samples%level == k .and. .not. full
           costs(k) = 0.0_dp
@@ -1188,13 +1188,13 @@ contains
     result%volume_error = volume_spread
     relative_volume_error = volume_spread / body%volume
     result%centroid = body%centroid()
-    result%body_moments = [body%volume, body%first, reshape(body%second, [9])]
+    result%body_moments = body%packed()
     call equivalent_ellipsoid(body, 0.0_dp, result%semi_axes, result%axes, err)
     if (err%failed) return
     allocate (result%sample_level(n), result%sample_beads(n), result%sample_iterations(n), result%sample_converged(n))
     allocate (result%sample_offset(3, n), result%sample_residual(n), result%sample_seconds(n), result%sample_symmetry_error(n))
     allocate (result%sample_friction(36, n), result%sample_mobility(36, n), result%sample_coefficients(5, n))
-    allocate (result%sample_moments(13, n), result%sample_lattice_axes(9, n))
+    allocate (result%sample_moments(packed_moments_size, n), result%sample_lattice_axes(9, n))
     result%turned_lattices = turns%enabled
     result%lattice_pivot = turns%pivot
     result%flow = config%hydrodynamics%flow
@@ -1214,7 +1214,7 @@ contains
         result%sample_lattice_axes(:, s) = reshape(lattice_axes(turns, p%bead_diameter, p%offset_index), [9])
         result%sample_residual(s) = p%residual
         result%sample_seconds(s) = p%seconds
-        result%sample_moments(:, s) = [p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
+        result%sample_moments(:, s) = p%moments%packed()
         call correct_sample(p, body, axes, result%reference_length, controlled, corrected, err)
         if (err%failed) return
         result%sample_mobility(:, s) = corrected%mobility
@@ -1263,8 +1263,7 @@ contains
     volume_power(37:41) = [1, 1, 1, 2, 2]
     result%moment_control = config%continuum%moment_control
     features = moment_features(result%sample_moments, result%body_moments)
-    body_features = reshape(moment_features(reshape(result%body_moments, [13, 1]), result%body_moments), &
-                            [n_moment_features])
+    body_features = body_moment_features(result%body_moments)
     call level_means(result%sample_mobility, result%level_mobility, result%level_mobility_error, &
                      result%sample_control_mobility)
     call level_means(result%sample_coefficients, result%level_coefficients, result%level_coefficient_error, &
@@ -1309,15 +1308,11 @@ contains
       shift = 0.0_dp
       factor = 1.0_dp
       if (result%moment_control) then
-        do row = 1, size(values, 1)
-          if (present(controls)) then
-            call moment_control_shift(controls(row, :), result%sample_level, features, body_features, shift(row, :), &
-                                      factor(row))
-          else
-            call moment_control_shift(values(row, :), result%sample_level, features, body_features, shift(row, :), &
-                                      factor(row))
-          end if
-        end do
+        if (present(controls)) then
+          call moment_control_shift(controls, result%sample_level, features, body_features, shift, factor)
+        else
+          call moment_control_shift(values, result%sample_level, features, body_features, shift, factor)
+        end if
       end if
       do k = 1, levels
         members = pack([(s, s = 1, n)], result%sample_level == k)
@@ -1627,7 +1622,7 @@ contains
     real(dp), allocatable :: values(:)
     values = [real(p%level, dp), real(p%offset_index, dp), real(p%beads, dp), real(p%iterations, dp), &
               real(p%converged, dp), p%seconds, p%residual, p%bead_diameter, p%offset, reshape(p%friction, [36]), &
-              p%moments%volume, p%moments%first, reshape(p%moments%second, [9])]
+              p%moments%packed()]
     if (layout%flow) values = [values, reshape(p%grand, [flow_numbers])]
     if (layout%controlled) values = [values, merge(1.0_dp, 0.0_dp, p%full), reshape(p%control, [36])]
     if (layout%flow .and. layout%controlled) values = [values, reshape(p%control_grand, [flow_numbers])]
@@ -1648,9 +1643,7 @@ contains
     p%bead_diameter = values(8)
     p%offset = values(9:11)
     p%friction = reshape(values(12:47), [6, 6])
-    p%moments%volume = values(48)
-    p%moments%first = values(49:51)
-    p%moments%second = reshape(values(52:60), [3, 3])
+    p%moments = unpacked_moments(values(48:60))
     next = sample_numbers + 1
     if (layout%flow) then
       p%grand = reshape(values(next:next + flow_numbers - 1), shape(p%grand))

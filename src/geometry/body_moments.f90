@@ -10,6 +10,7 @@ module beadmob_body_moments
   implicit none
   private
   public :: body_moments_t, moments_of_beads, moments_of_polyhedron, moments_about_origin, equivalent_ellipsoid
+  public :: unpacked_moments, packed_moments_size
 
   real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -20,7 +21,12 @@ module beadmob_body_moments
     real(dp) :: second(3, 3) = 0.0_dp
   contains
     procedure :: centroid
+    procedure :: packed
   end type body_moments_t
+
+  !> The moments as numbers: volume, first (3), second (9, column-major), as the result file,
+  !> the checkpoint and the moment control's features hold them.
+  integer, parameter :: packed_moments_size = 13
 
 contains
 
@@ -91,6 +97,18 @@ contains
     real(dp) :: centroid(3)
     centroid = moments%first / moments%volume
   end function centroid
+
+  pure function packed(moments) result(values)
+    class(body_moments_t), intent(in) :: moments
+    real(dp) :: values(packed_moments_size)
+    values = [moments%volume, moments%first, reshape(moments%second, [9])]
+  end function packed
+
+  pure function unpacked_moments(values) result(moments)
+    real(dp), intent(in) :: values(packed_moments_size)
+    type(body_moments_t) :: moments
+    moments = body_moments_t(values(1), values(2:4), reshape(values(5:13), [3, 3]))
+  end function unpacked_moments
 
   !> The ellipsoid of the body's volume whose axes and proportions are those of its second
   !> moments about the centroid (a solid ellipsoid's are a_i^2 / 5 on its axes); `cell` is added

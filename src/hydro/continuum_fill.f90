@@ -55,30 +55,35 @@ contains
     end do
   end function total_intercept_variance
 
-  !> One quantity's variance parts on every level as the job's level means form them
-  !> (continuum_values): y(S) its order-L values (read on full samples only), x(S) its order L - 1
-  !> controls, full(S), level(S) in 1..K; with use_moments the moment control's shift subtracted
-  !> from both and its variance factor on both parts (features(10, S), body_features(10):
-  !> moment_features). Both parts relative to the quantity's extrapolated value squared.
+  !> The quantities' variance parts on every level as the job's level means form them
+  !> (continuum_values): y(T, S) their order-L values (read on full samples only), x(T, S) their
+  !> order L - 1 controls, full(S), level(S) in 1..K; with use_moments the moment control's shift
+  !> subtracted from both and its variance factor on both parts (features(10, S),
+  !> body_features(10): moment_features). paired(T, K), per_control(T, K), each quantity's
+  !> relative to its extrapolated value squared.
   pure subroutine fill_variance_parts(h, y, x, full, level, features, body_features, use_moments, paired, per_control)
-    real(dp), intent(in) :: h(:), y(:), x(:), features(:, :), body_features(:)
+    real(dp), intent(in) :: h(:), y(:, :), x(:, :), features(:, :), body_features(:)
     logical, intent(in) :: full(:), use_moments
     integer, intent(in) :: level(:)
-    real(dp), intent(out) :: paired(size(h)), per_control(size(h))
-    real(dp) :: shift(size(y)), factor, means(size(h)), errors(size(h))
+    real(dp), intent(out) :: paired(size(y, 1), size(h)), per_control(size(y, 1), size(h))
+    real(dp) :: shift(size(y, 1), size(y, 2)), factor(size(y, 1)), means(size(h)), errors(size(h))
     type(continuum_value_t) :: fit
-    logical :: on_level(size(y))
-    integer :: k
+    logical :: on_level(size(y, 2))
+    integer :: k, q
     shift = 0.0_dp
     factor = 1.0_dp
     if (use_moments) call moment_control_shift(x, level, features, body_features, shift, factor)
-    do k = 1, size(h)
-      on_level = level == k
-      call controlled_level_mean(pack(y - shift, on_level .and. full), pack(x - shift, on_level .and. full), &
-                                 pack(x - shift, on_level), means(k), errors(k), paired(k), per_control(k))
+    do q = 1, size(y, 1)
+      associate (yq => y(q, :) - shift(q, :), xq => x(q, :) - shift(q, :))
+        do k = 1, size(h)
+          on_level = level == k
+          call controlled_level_mean(pack(yq, on_level .and. full), pack(xq, on_level .and. full), pack(xq, on_level), &
+                                     means(k), errors(k), paired(q, k), per_control(q, k))
+        end do
+      end associate
+      fit = extrapolate_to_zero(h, means, errors * sqrt(factor(q)), 0.0_dp)
+      paired(q, :) = factor(q) * paired(q, :) / fit%value**2
+      per_control(q, :) = factor(q) * per_control(q, :) / fit%value**2
     end do
-    fit = extrapolate_to_zero(h, means, errors * sqrt(factor), 0.0_dp)
-    paired = factor * paired / fit%value**2
-    per_control = factor * per_control / fit%value**2
   end subroutine fill_variance_parts
 end module beadmob_continuum_fill

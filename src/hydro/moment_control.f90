@@ -21,7 +21,7 @@ module beadmob_moment_control
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
-  public :: moment_features, moment_control_shift, n_moment_features
+  public :: moment_features, body_moment_features, moment_control_shift, n_moment_features
 
   !> Volume, first moments (3), second moments (6 distinct).
   integer, parameter :: n_moment_features = 10
@@ -64,28 +64,38 @@ contains
     end do
   end function moment_features
 
-  !> Each sample's shift, to subtract from its value (and its control's), and the factor on the
-  !> level means' variances (the degrees of freedom the regression took). target(S): the quantity
-  !> known on every sample (the control, order L - 1, where there are control samples); level(S);
-  !> features(10, S) and the body's (moment_features). The target's deviations from their level's
-  !> mean are regressed on the features' deviations from theirs.
-  pure subroutine moment_control_shift(target, level, features, body_features, shift, variance_factor)
-    real(dp), intent(in) :: target(:), features(:, :), body_features(:)
-    integer, intent(in) :: level(:)
-    real(dp), intent(out) :: shift(size(target)), variance_factor
-    real(dp) :: centred(size(features, 1), size(target)), deviation(size(target))
-    real(dp) :: spread(size(features, 1)), beta(size(features, 1)), best_inverse(size(features, 1), size(features, 1))
-    real(dp), allocatable :: a(:, :), gram(:, :), inverse(:, :), leverage(:), residual(:)
-    real(dp) :: unit, ridge, loo_error, best_error, parameters, dof
-    logical :: used(size(features, 1)), chosen(size(target)), found
-    integer :: s, p, k, levels, j, i, info, q
+  !> The body's own features (moment_features of its moments): where the fitted shift is evaluated.
+  pure function body_moment_features(body) result(features)
+    real(dp), intent(in) :: body(13)
+    real(dp) :: features(n_moment_features)
+    features = reshape(moment_features(reshape(body, [13, 1]), body), [n_moment_features])
+  end function body_moment_features
 
-    s = size(target)
-    shift = 0.0_dp
-    variance_factor = 1.0_dp
+  !> Each sample's shift, to subtract from its value (and its control's), and the factor on the
+  !> level means' variances (the degrees of freedom the regression took), for every quantity at
+  !> once. targets(T, S): each quantity known on every sample (the control, order L - 1, where there
+  !> are control samples); level(S); features(10, S) and the body's (moment_features). Each target's
+  !> deviations from their level's mean are regressed on the features' deviations from theirs,
+  !> with its own ridge; the Gram matrix, its factors and the leverages of each ridge are the
+  !> features' and serve every target (a fill decision weighs 6 quantities, a result 41 or more).
+  pure subroutine moment_control_shift(targets, level, features, body_features, shifts, variance_factors)
+    real(dp), intent(in) :: targets(:, :), features(:, :), body_features(:)
+    integer, intent(in) :: level(:)
+    real(dp), intent(out) :: shifts(size(targets, 1), size(targets, 2)), variance_factors(size(targets, 1))
+    real(dp) :: centred(size(features, 1), size(targets, 2)), deviations(size(targets, 2), size(targets, 1))
+    real(dp) :: feature_scale(size(features, 1)), beta(size(features, 1), size(targets, 1))
+    real(dp) :: best_error(size(targets, 1)), parameters(size(targets, 1)), loo_error(size(targets, 1))
+    real(dp), allocatable :: a(:, :), gram(:, :), inverse(:, :), leverage(:), coefficients(:, :), residuals(:, :)
+    real(dp) :: unit, ridge, dof
+    logical :: used(size(features, 1)), chosen(size(targets, 2)), regressed(size(targets, 1))
+    logical :: finite(size(targets, 1)), better(size(targets, 1))
+    integer :: s, p, k, levels, j, i, info, q, t
+
+    s = size(targets, 2)
+    shifts = 0.0_dp
+    variance_factors = 1.0_dp
     centred = 0.0_dp
-    deviation = 0.0_dp
-    parameters = 0.0_dp
+    deviations = 0.0_dp
     levels = 0
     do k = minval(level), maxval(level)
       chosen = level == k
@@ -94,25 +104,35 @@ contains
       do i = 1, size(features, 1)
         centred(i, :) = merge(features(i, :) - sum(features(i, :), mask=chosen) / count(chosen), centred(i, :), chosen)
       end do
-      deviation = merge(target - sum(target, mask=chosen) / count(chosen), deviation, chosen)
+      do t = 1, size(targets, 1)
+        deviations(:, t) = merge(targets(t, :) - sum(targets(t, :), mask=chosen) / count(chosen), deviations(:, t), &
+                                 chosen)
+      end do
     end do
     if (s - levels < samples_per_feature * size(features, 1)) return
-    if (.not. all(ieee_is_finite(deviation))) return
-    spread = sqrt(sum(centred**2, dim=2) / s)
-    used = spread > 1e-14_dp * max(abs(body_features), 1.0_dp)
+    ! A target with a non-finite value is not regressed (its columns kept out of the products).
+    finite = [(all(ieee_is_finite(deviations(:, t))), t = 1, size(targets, 1))]
+    do t = 1, size(targets, 1)
+      if (.not. finite(t)) deviations(:, t) = 0.0_dp
+    end do
+    feature_scale = sqrt(sum(centred**2, dim=2) / s)
+    used = feature_scale > 1e-14_dp * max(abs(body_features), 1.0_dp)
     p = count(used)
     if (p == 0) return
-    allocate (a(s, p), gram(p, p), inverse(p, p), leverage(s), residual(s))
+    allocate (a(s, p), gram(p, p), inverse(p, p), leverage(s), coefficients(p, size(targets, 1)), &
+              residuals(s, size(targets, 1)))
     q = 0
     do i = 1, size(features, 1)
       if (.not. used(i)) cycle
       q = q + 1
-      a(:, q) = centred(i, :) / spread(i)
+      a(:, q) = centred(i, :) / feature_scale(i)
     end do
     gram = matmul(transpose(a), a)
     unit = sum([(gram(i, i), i = 1, p)]) / p
-    best_error = sum(deviation**2)   ! no regression
-    found = .false.
+    best_error = sum(deviations**2, dim=1)   ! no regression
+    regressed = .false.
+    parameters = 0.0_dp
+    beta = 0.0_dp
     do j = 1, n_ridge
       ridge = 0.0_dp
       if (j > 1) ridge = 10.0_dp**(-6.0_dp + 0.25_dp * (j - 2))
@@ -129,26 +149,30 @@ contains
       end do
       leverage = sum(matmul(a, inverse) * a, dim=2)
       if (any(1.0_dp - leverage < 1e-8_dp)) cycle
-      residual = deviation - matmul(a, matmul(inverse, matmul(transpose(a), deviation)))
-      loo_error = sum((residual / (1.0_dp - leverage))**2)
-      if (loo_error < best_error) then
+      ! Leave-one-out errors in closed form: residual / (1 - leverage).
+      coefficients = matmul(inverse, matmul(transpose(a), deviations))
+      residuals = deviations - matmul(a, coefficients)
+      loo_error = sum((residuals / spread(1.0_dp - leverage, 2, size(targets, 1)))**2, dim=1)
+      better = finite .and. loo_error < best_error
+      where (better)
         best_error = loo_error
-        best_inverse(1:p, 1:p) = inverse
         parameters = sum(leverage)
-        found = .true.
-      end if
+      end where
+      do t = 1, size(targets, 1)
+        if (better(t)) beta(1:p, t) = coefficients(:, t)
+      end do
+      regressed = regressed .or. better
     end do
-    if (.not. found) return
-    beta = 0.0_dp
-    beta(1:p) = matmul(best_inverse(1:p, 1:p), matmul(transpose(a), deviation))
+    dof = s - levels
     q = 0
     do i = 1, size(features, 1)
       if (.not. used(i)) cycle
       q = q + 1
-      shift = shift + (features(i, :) - body_features(i)) * beta(q) / spread(i)
+      do t = 1, size(targets, 1)
+        if (regressed(t)) shifts(t, :) = shifts(t, :) + (features(i, :) - body_features(i)) * beta(q, t) / feature_scale(i)
+      end do
     end do
-    dof = s - levels
-    variance_factor = dof / max(dof - parameters, 1.0_dp)
+    where (regressed) variance_factors = dof / max(dof - parameters, 1.0_dp)
   end subroutine moment_control_shift
 
 end module beadmob_moment_control

@@ -25,7 +25,7 @@ program test_continuum_fit
   type(continuum_value_t) :: shared_scatter
   integer :: k
   integer, parameter :: n_fill = 48
-  real(dp) :: features(10, n_fill), x_fill(n_fill), paired3(3), per_control3(3), level_means(3), level_errors(3)
+  real(dp) :: features(10, n_fill), x_fill(n_fill), paired3(1, 3), per_control3(1, 3), level_means(3), level_errors(3)
   logical :: full_fill(n_fill)
   integer :: level_fill(n_fill), s, j
 
@@ -162,21 +162,21 @@ program test_continuum_fit
     end do
     x_fill(s) = 1.0_dp + 0.02_dp * features(1, s)
   end do
-  call fill_variance_parts(h3, x_fill, x_fill, full_fill, level_fill, features, [(0.0_dp, j = 1, 10)], .false., &
-                           paired3, per_control3)
+  call fill_variance_parts(h3, reshape(x_fill, [1, n_fill]), reshape(x_fill, [1, n_fill]), full_fill, level_fill, &
+                           features, [(0.0_dp, j = 1, 10)], .false., paired3, per_control3)
   do k = 1, 3
     call level_mean(pack(x_fill, level_fill == k), level_means(k), level_errors(k))
   end do
   fit = extrapolate_to_zero(h3, level_means, level_errors, 0.0_dp)
   do k = 1, 3
     associate (x_level => pack(x_fill, level_fill == k))
-      call check_close(suite, per_control3(k) * fit%value**2, sum((x_level - sum(x_level) / 16)**2) / 15, 1.0e-12_dp, &
+      call check_close(suite, per_control3(1, k) * fit%value**2, sum((x_level - sum(x_level) / 16)**2) / 15, 1.0e-12_dp, &
                        'fill variances: without the moment control, the level''s scatter of its controls')
     end associate
   end do
   call check(suite, all(paired3 == 0.0_dp), 'fill variances: no paired part where y = x')
-  call fill_variance_parts(h3, x_fill, x_fill, full_fill, level_fill, features, [(0.0_dp, j = 1, 10)], .true., &
-                           paired3, per_control3)
+  call fill_variance_parts(h3, reshape(x_fill, [1, n_fill]), reshape(x_fill, [1, n_fill]), full_fill, level_fill, &
+                           features, [(0.0_dp, j = 1, 10)], .true., paired3, per_control3)
   call check(suite, maxval(per_control3) < 1.0e-20_dp, &
              'fill variances: with the moment control, no scatter the moments explain')
   call finish_tests(suite)

@@ -13,7 +13,7 @@ program test_moment_control
   use beadmob_testing, only: test_suite_t, start_tests, finish_tests, check, check_close
   use beadmob_random_vectors, only: hash_uniform
   use beadmob_lattice_fill, only: offset_sequence
-  use beadmob_moment_control, only: moment_features, moment_control_shift, n_moment_features
+  use beadmob_moment_control, only: moment_features, body_moment_features, moment_control_shift, n_moment_features
   use beadmob_continuum_fit, only: level_mean
   use beadmob_strings, only: str
   implicit none
@@ -23,6 +23,7 @@ program test_moment_control
   type(test_suite_t) :: suite
   real(dp) :: moments(13, n), body(13), features(n_moment_features, n), body_features(n_moment_features)
   real(dp) :: linear(n), noise(n), shift(n), factor, mean, error, corrected, corrected_error
+  real(dp) :: shifts(2, n), factors(2), noise_shift(n), noise_factor
   real(dp) :: plain_miss, controlled_miss, mean_volume, mean_second
   integer :: s, k, large_n
   integer, allocatable :: level(:)
@@ -51,13 +52,13 @@ program test_moment_control
   call check_close(suite, mean_second, body(5), 4.0e-3_dp, 'mean bead second moment: 4 pi R^5 / 15')
 
   features = moment_features(moments, body)
-  body_features = reshape(moment_features(reshape(body, [13, 1]), body), [n_moment_features])
+  body_features = body_moment_features(body)
   call check_close(suite, body_features(1), 1.0_dp, 1.0e-14_dp, 'the body''s relative volume is 1')
 
   ! A value linear in the features: its offset average is 1 (the features' averages are the body's).
   linear = 1.0_dp + 0.4_dp * (features(1, :) - body_features(1)) - 0.25_dp * (features(5, :) - body_features(5)) &
            + 0.1_dp * (features(7, :) - body_features(7))
-  call moment_control_shift(linear, level, features, body_features, shift, factor)
+  call one_shift(linear, level, features, shift, factor)
   plain_miss = 0.0_dp
   controlled_miss = 0.0_dp
   do k = 1, levels
@@ -76,7 +77,9 @@ program test_moment_control
   do s = 1, n
     noise(s) = 1.0_dp + 0.01_dp * (hash_uniform(int(7919 * s, i8)) - 0.5_dp)
   end do
-  call moment_control_shift(noise, level, features, body_features, shift, factor)
+  call one_shift(noise, level, features, shift, factor)
+  noise_shift = shift
+  noise_factor = factor
   call check(suite, factor >= 1.0_dp, 'noise: the variance is not shrunk')
   do k = 1, levels
     call level_mean(pack(noise, level == k), mean, error)
@@ -85,13 +88,33 @@ program test_moment_control
   end do
 
   ! Too few samples: 4 per level, 12 - 3 < 3 x 10.
-  call moment_control_shift(linear(1:12), [1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3], features(:, 1:12), body_features, &
-                            shift(1:12), factor)
+  call one_shift(linear(1:12), [1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3], features(:, 1:12), shift(1:12), factor)
   call check(suite, all(shift(1:12) == 0.0_dp) .and. factor == 1.0_dp, 'too few samples: no regression')
+
+  ! Several targets at once share the features' factors, each with its own ridge: as one at a time.
+  call one_shift(linear, level, features, shift, factor)
+  call moment_control_shift(reshape([linear, noise], [2, n], order=[2, 1]), level, features, body_features, shifts, &
+                            factors)
+  call check(suite, maxval(abs(shifts(1, :) - shift)) <= 1.0e-12_dp * maxval(abs(shift)) .and. &
+             abs(factors(1) - factor) <= 1.0e-12_dp, 'two targets at once: the linear one''s shift as alone')
+  call check(suite, maxval(abs(shifts(2, :) - noise_shift)) <= 1.0e-12_dp * max(maxval(abs(noise_shift)), 1.0e-300_dp) &
+             .and. abs(factors(2) - noise_factor) <= 1.0e-12_dp, 'two targets at once: the noise''s shift as alone')
 
   call finish_tests(suite)
 
 contains
+
+  !> moment_control_shift of one target.
+  subroutine one_shift(target, sample_level, sample_features, target_shift, target_factor)
+    real(dp), intent(in) :: target(:), sample_features(:, :)
+    integer, intent(in) :: sample_level(:)
+    real(dp), intent(out) :: target_shift(size(target)), target_factor
+    real(dp) :: shifts_of_one(1, size(target)), factors_of_one(1)
+    call moment_control_shift(reshape(target, [1, size(target)]), sample_level, sample_features, body_features, &
+                              shifts_of_one, factors_of_one)
+    target_shift = shifts_of_one(1, :)
+    target_factor = factors_of_one(1)
+  end subroutine one_shift
 
   !> Volume, first and second moments (body_moments_t's order) of the nodes (i + offset) d inside
   !> the sphere, the offset Halton point number j.
