@@ -27,6 +27,14 @@ Variants (each changes one thing of beadmob's estimator, scripts/beadmob_post/co
 * next term: beadmob since 2026-11-29 (T18, "The error bar"): the moment control with the line's
   distance capped, on ladders of five or more levels, by the h^3 term the quadratic's own b h and
   c h^2 foresee (c^2 / b times the quadratic's intercept of h^3);
+* volume variance covariate (an experiment of 2026-11-29, not built): the next term's estimator with
+  one more term in the level means' law, g v_k, v_k the variance of level k's samples' bead volume
+  over their offsets relative to the body's volume squared, kept for an entry when |g| is at least
+  twice its standard error (random-effects weights of the four-term law), its spread the reduced
+  four-term law's distance or the next term. On a lattice aligned with flat faces a level's mean
+  sits between the friction of n and n + 1 rows across a bar, about f(n + frac) + f'' frac (1 -
+  frac) / 2: its offset average carries the curvature of the friction in the rows times their
+  variance, which v_k follows (0 on levels where the bars are whole rows at every offset);
 * cubic beyond noise (built in 51273d1 and 7b47e0c, reverted): the model spread as how far the cubic's
   and the reduced quadratic's intercepts lie from the quadratic's beyond the levels' sampling noise
   of each difference, sum_k (r_k - r_quadratic,k)^2 s_k^2 (r: an intercept's weights on the level
@@ -80,11 +88,12 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from beadmob_post import continuum_bar as bar_module  # noqa: E402
 
 NONCONVEX = ("dumbbell", "bent_rod", "cross", "rough_sphere", "ellipsoid")
-VARIANTS = ("beadmob before moment control", "moment control", "next term", "model average (AIC)", "cubic beyond noise",
+VARIANTS = ("beadmob before moment control", "moment control", "next term", "volume variance covariate",
+            "model average (AIC)", "cubic beyond noise",
             "chi^2 inflation", "floor 0.5", "floor 1", "half-range spread", "no line", "2 sigma alone",
             "volume regression", "moment regression")
 #: the variants built on the moment control (the rest change the estimator before it)
-MOMENT_VARIANTS = ("moment control", "next term", "model average (AIC)")
+MOMENT_VARIANTS = ("moment control", "next term", "volume variance covariate", "model average (AIC)")
 
 
 class HalfRangeSpread(bar_module.Extrapolation):
@@ -218,6 +227,55 @@ def model_average(h, mean, standard_error):
                        fit.excess_deviation, fit.plain_reduced_chi2, spread=0.0)
 
 
+def _law_fit(design, y, w):
+    normal = design.T @ (w[:, None] * design)
+    covariance = np.linalg.inv(normal)
+    coefficients = covariance @ (design.T @ (w * y))
+    return coefficients, covariance, float(np.sum(w * (y - design @ coefficients) ** 2))
+
+
+def level_volume_variance(job):
+    """v_k: each level's variance of its samples' bead volume over the offsets / the body's volume^2."""
+    with h5py.File(job) as f:
+        c = f["continuum"]
+        volume = np.asarray(c["sample_moments"][()], dtype=float).reshape(-1, 13)[:, 0]
+        level = np.asarray(c.attrs["sample_level"]).reshape(-1)
+        body = float(np.asarray(c["body_moments"][()]).reshape(13)[0])
+    return np.array([np.var(volume[level == k], ddof=1) / body**2 if np.sum(level == k) > 1 else 0.0
+                     for k in range(1, level.max() + 1)])
+
+
+def covariate_extrapolation(v):
+    """beadmob's extrapolation with g v_k added to the law where |g| >= 2 sd (the variant's docstring)."""
+    def extrapolate(h, mean, standard_error):
+        fit = beadmob_extrapolate(h, mean, standard_error)
+        h, mean, standard_error = (np.asarray(x, dtype=float) for x in (h, mean, standard_error))
+        n = len(h)
+        if n < 6 or np.ptp(v) == 0:
+            return fit
+        s2 = bar_module.floored_standard_error(standard_error, mean) ** 2
+        design = np.column_stack([np.ones(n), h, h**2, v])
+        excess = 0.0
+        if _law_fit(design, mean, 1 / s2)[2] > n - 4:   # random effects, as excess_variance for 4 terms
+            lower, upper = 0.0, _law_fit(design, mean, np.ones(n))[2] / (n - 4)
+            for _ in range(200):
+                middle = (lower + upper) / 2
+                lower, upper = (middle, upper) if _law_fit(design, mean, 1 / (s2 + middle))[2] > n - 4 else (lower, middle)
+            excess = upper
+        weights = 1 / (s2 + excess)
+        coefficients, covariance, _ = _law_fit(design, mean, weights)
+        if abs(coefficients[3]) < 2 * np.sqrt(covariance[3, 3]):
+            return fit
+        kept = np.argsort(h, kind="stable")[: n - 1]
+        reduced = _law_fit(design[kept], mean[kept], weights[kept])[0][0]
+        kappa3 = _law_fit(design, h**3, weights)[0][0]
+        next_term = abs(coefficients[2] ** 2 / coefficients[1] * kappa3) if coefficients[1] != 0 else np.inf
+        spread = max(abs(reduced - coefficients[0]), min(abs(fit.linear_value - coefficients[0]), next_term))
+        return FixedSpread(float(coefficients[0]), float(np.sqrt(covariance[0, 0])), fit.linear_value, float(reduced),
+                           fit.reduced_chi2, float(np.sqrt(excess)), fit.plain_reduced_chi2, spread=float(spread))
+    return extrapolate
+
+
 def half_range_extrapolation(h, mean, standard_error):
     fit = beadmob_extrapolate(h, mean, standard_error)
     return HalfRangeSpread(fit.value, fit.standard_error, fit.linear_value, fit.reduced_value, fit.reduced_chi2)
@@ -290,6 +348,8 @@ def use_variant(variant, job):
     bar_module.read_samples = samples_reader(variant in MOMENT_VARIANTS)
     if variant.endswith("regression"):
         bar_module.combination_bar = regressed_bar(sample_features(job, variant == "moment regression"))
+    if variant == "volume variance covariate":
+        bar_module.extrapolate = covariate_extrapolation(level_volume_variance(job))
 
 
 def coverage_row(variant, folder):
