@@ -241,8 +241,8 @@ def floored_standard_error(standard_error: np.ndarray, mean: np.ndarray) -> np.n
 def extrapolate(h: np.ndarray, mean: np.ndarray, standard_error: np.ndarray) -> Extrapolation:
     """continuum_fit.f90's extrapolate_to_zero: level variances s_k^2 = max(se, a fifth of the median
     level's se, 1e-9 |mean|)^2, weights 1 / (s_k^2 + tau^2) with the random-effects excess tau^2
-    (excess_variance); the quadratic over all levels, the line through the three finest levels and the
-    quadratic without the coarsest."""
+    (excess_variance); the quadratic over all levels, the line through the three finest levels, the
+    quadratic without the coarsest and the foreseen h^3 term (next_term_shift)."""
     h, mean, standard_error = (np.asarray(v, dtype=float) for v in (h, mean, standard_error))
     n = len(h)
     sigma = floored_standard_error(standard_error, mean)
@@ -267,10 +267,13 @@ def next_term_shift(h: np.ndarray, weights: np.ndarray, b: float, c: float) -> f
     """continuum_fit.f90's next_term_shift: |c^2 / b| times the weighted quadratic's intercept of h^3,
     the h^3 term foreseen as the series a + b h + c h^2 continues geometrically (inf on fewer than
     NEXT_TERM_LEVELS levels or b = 0)."""
-    if len(h) < NEXT_TERM_LEVELS or b == 0.0:
+    if len(h) < NEXT_TERM_LEVELS or abs(b) <= np.finfo(float).tiny:
         return float("inf")
     kappa3 = _weighted_polynomial(h, h**3, weights, 2)[0][0]
-    return float(abs(c) * abs(c / b) * abs(kappa3))
+    if c == 0.0 or kappa3 == 0.0:
+        return 0.0
+    log_shift = 2.0 * np.log(abs(c)) - np.log(abs(b)) + np.log(abs(kappa3))
+    return float(np.exp(log_shift)) if log_shift < np.log(np.finfo(float).max) else float("inf")
 
 
 def combination_level_means(samples: ContinuumSamples, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
