@@ -226,14 +226,15 @@ contains
   pure real(dp) function next_term_shift(h, weights, b, c)
     real(dp), intent(in) :: h(:), weights(:), b, c
     real(dp) :: coefficients(3), variance, chi2, log_shift
-    next_term_shift = huge(1.0_dp)
+    next_term_shift = huge(1.0_dp)   ! no foresight
     if (size(h) < next_term_levels .or. abs(b) <= tiny(1.0_dp)) return
     call weighted_polynomial(h, h**3, weights, 2, coefficients, variance, chi2)
-    next_term_shift = 0.0_dp
-    if (c == 0.0_dp .or. coefficients(1) == 0.0_dp) return
-    ! In logarithms: c^2 / b overflows where b nearly vanishes (no foresight then: huge()).
+    if (c == 0.0_dp .or. coefficients(1) == 0.0_dp) then
+      next_term_shift = 0.0_dp
+      return
+    end if
+    ! In logarithms: c^2 / b overflows where b nearly vanishes (no foresight then).
     log_shift = 2.0_dp * log(abs(c)) - log(abs(b)) + log(abs(coefficients(1)))
-    next_term_shift = huge(1.0_dp)
     if (log_shift < log(huge(1.0_dp))) next_term_shift = exp(log_shift)
   end function next_term_shift
 
